@@ -25,7 +25,7 @@ from .profiles import RailProfile, get_profile, half_outline
 
 log = logging.getLogger(__name__)
 
-CORNER_ANGLE_DEG = 30.0
+CORNER_ANGLE_DEG = 10.0
 MESH_DIR = Path(__file__).resolve().parents[1] / "meshes"
 DEFAULT_PROFILE = "60E1"
 DEFAULT_H = 0.010  # m; default element size of the shipped mesh

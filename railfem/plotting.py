@@ -1,0 +1,392 @@
+"""Matplotlib figures for railfem results.
+
+Every plotting function draws into ``ax`` (or ``axes``) when given, otherwise on a
+new figure, and returns the Axes; save with :func:`save_figure`. Matplotlib is
+imported inside the functions (``import railfem`` stays fast), and without a
+display the non-interactive Agg backend is selected.
+
+Conventions follow :mod:`railfem.conventions`: frequency (or position, or
+element size) is axis 0 of every array; a wave ``exp(-i k x)`` is positive-going
+when ``Im k < 0``.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import sys
+import tempfile
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+
+log = logging.getLogger(__name__)
+
+#: Default limit on |Im k| / |Re k| for a wave to count as propagating
+#: (0.25 is a decay of about 13.6 dB per wavelength).
+MAX_ATTENUATION = 0.25
+
+_MARKERS = ("o", "s", "^", "v", "D", "<", ">", "p", "h", "*", "X", "P")
+# preferred-number series of nominal one-third-octave centre frequencies (IEC 61260)
+_NOMINAL_MANTISSAS = np.array([1.0, 1.25, 1.6, 2.0, 2.5, 3.15, 4.0, 5.0, 6.3, 8.0, 10.0])
+_NON_GUI_BACKENDS = {"agg", "pdf", "pgf", "ps", "svg", "cairo", "template"}
+
+
+# ------------------------------------------------------------------ matplotlib setup
+def _has_display() -> bool:
+    if sys.platform in ("win32", "darwin"):
+        return True
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY"))
+
+
+def _pyplot():
+    """Import pyplot, switching to Agg first when there is no display."""
+    import matplotlib
+
+    if not _has_display():
+        backend = str(matplotlib.get_backend()).lower()
+        if backend not in _NON_GUI_BACKENDS and not backend.startswith("module://"):
+            matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _axes(ax, figsize=(6.4, 4.8)):
+    """Return ``ax`` or a new Axes on a new figure."""
+    if ax is not None:
+        return ax
+    plt = _pyplot()
+    _, ax = plt.subplots(figsize=figsize, layout="constrained")
+    return ax
+
+
+def save_figure(fig, path, *, dpi: int = 150, close: bool = True) -> Path:
+    """Write ``fig`` atomically (temporary file in the same folder + os.replace).
+
+    ``fig`` may also be an Axes (its figure is saved). The format follows the
+    suffix of ``path`` (PNG when there is none). The figure is closed afterwards
+    unless ``close=False``. Returns the path written.
+    """
+    fig = getattr(fig, "figure", fig)
+    if not hasattr(fig, "savefig"):
+        raise TypeError(f"save_figure needs a matplotlib Figure or Axes, got {type(fig)!r}")
+    path = Path(path)
+    suffix = path.suffix or ".png"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=suffix, dir=path.parent)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, format=suffix.lstrip(".").lower(), dpi=dpi)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+    if close:
+        _pyplot().close(fig)
+    log.info("wrote figure %s", path)
+    return path
+
+
+# ------------------------------------------------------------------------- checks
+def _vector(values, name: str, dtype=float) -> np.ndarray:
+    array = np.asarray(values, dtype=dtype)
+    if array.ndim != 1 or array.size == 0:
+        raise ValueError(f"{name} must be a non-empty 1-D array, got shape {array.shape}")
+    return array
+
+
+def _columns(values, n: int, name: str, axis_name: str, dtype=float) -> np.ndarray:
+    """Return ``values`` as (n, c): 1-D becomes one column; axis 0 must have length n."""
+    array = np.asarray(values, dtype=dtype)
+    if array.ndim == 1:
+        array = array[:, None]
+    if array.ndim != 2 or array.shape[0] != n:
+        hint = ""
+        if array.ndim == 2 and array.shape[1] == n:
+            hint = f"; {axis_name} is axis 0, so pass {name}.T"
+        raise ValueError(
+            f"{name} must have shape ({n},) or ({n}, c) to match {axis_name} "
+            f"(length {n}), got {np.shape(values)}{hint}"
+        )
+    return array
+
+
+def _labels(labels, count: int, name: str = "labels") -> list[str | None]:
+    if labels is None:
+        return [None] * count
+    if isinstance(labels, str):
+        labels = [labels]
+    labels = [None if lab is None else str(lab) for lab in labels]
+    if len(labels) != count:
+        raise ValueError(f"got {len(labels)} {name} for {count} curves; "
+                         f"pass one label per column or {name}=None")
+    return labels
+
+
+def _plain_log_labels(axis) -> None:
+    """Label a log axis with plain numbers (0.5, 2, 1e-05) instead of 2x10^0 forms."""
+    from matplotlib.ticker import Formatter
+
+    class PlainLogFormatter(Formatter):
+        """'%g' labels; minor ticks (2, 3, 5 x 10^n) labelled only on short axes."""
+
+        def __init__(self, minor: bool):
+            self.minor = minor
+
+        def __call__(self, value, pos=None):
+            if not self.minor:
+                return f"{value:g}"
+            low, high = sorted(self.axis.get_view_interval())
+            if not (low > 0 and value > 0):
+                return ""
+            decades = np.log10(high / low)
+            mantissa = round(value / 10.0 ** np.floor(np.log10(value) + 1e-9), 6)
+            shown = (2, 3, 5) if decades <= 1 else (2, 5) if decades <= 1.6 else ()
+            return f"{value:g}" if mantissa in shown else ""
+
+    axis.set_major_formatter(PlainLogFormatter(minor=False))
+    axis.set_minor_formatter(PlainLogFormatter(minor=True))
+
+
+def _legend(ax) -> None:
+    handles, names = ax.get_legend_handles_labels()
+    if handles:
+        ax.legend(fontsize="small")
+
+
+# --------------------------------------------------------------------- dispersion
+def _wave_labels(labels, shape) -> np.ndarray:
+    """Broadcast wave-type labels to ``shape`` (nf, nw); '' marks unlabelled."""
+    if labels is None:
+        return np.full(shape, "", dtype=object)
+    array = np.asarray(labels, dtype=object)
+    try:
+        array = np.broadcast_to(array, shape)
+    except ValueError:
+        raise ValueError(
+            f"labels must have shape {shape} (one wave type per frequency and wave) "
+            f"or ({shape[1]},) (one per column), got {np.shape(labels)}"
+        ) from None
+    return np.where(array == None, "", array).astype(str)  # noqa: E711
+
+
+def propagating_mask(wavenumber, max_attenuation: float = MAX_ATTENUATION) -> np.ndarray:
+    """True where a wave propagates: finite, Re k != 0 and |Im k| <= max_attenuation |Re k|."""
+    k = np.asarray(wavenumber, dtype=complex)
+    with np.errstate(invalid="ignore"):
+        return (np.isfinite(k) & (k.real != 0)
+                & (np.abs(k.imag) <= max_attenuation * np.abs(k.real)))
+
+
+def plot_dispersion(frequency, wavenumber, labels=None, *, ax=None,
+                    max_attenuation: float = MAX_ATTENUATION):
+    """Dispersion diagram of the propagating waves: x = Re k (rad/m), y = frequency (Hz).
+
+    Parameters
+    ----------
+    frequency : (nf,) array, Hz.
+    wavenumber : (nf, nw) complex array, rad/m, positive-going waves (Im k < 0);
+        NaN marks an absent wave.
+    labels : (nf, nw) or (nw,) array of str, optional
+        Wave type of each entry; one marker style and legend entry per type.
+    max_attenuation : float
+        A wave is drawn when |Im k| <= max_attenuation * |Re k|.
+    """
+    frequency = _vector(frequency, "frequency")
+    k = _columns(wavenumber, frequency.size, "wavenumber", "frequency", dtype=complex)
+    types = _wave_labels(labels, k.shape)
+    mask = propagating_mask(k, max_attenuation)
+    freq = np.broadcast_to(frequency[:, None], k.shape)
+    ax = _axes(ax)
+    names = sorted(set(types[mask])) if mask.any() else []
+    if not names:
+        log.warning("plot_dispersion: no propagating wave (|Im k| <= %g |Re k|)",
+                    max_attenuation)
+    for i, name in enumerate(names):
+        sel = mask & (types == name)
+        ax.scatter(k.real[sel], freq[sel], s=10, marker=_MARKERS[i % len(_MARKERS)],
+                   color=f"C{i % 10}", label=name or None)
+    ax.set_xlabel("Wavenumber Re k (rad/m)")
+    ax.set_ylabel("Frequency (Hz)")
+    if mask.any() and np.all(k.real[mask] >= 0):
+        ax.set_xlim(left=0)
+    ax.set_ylim(bottom=min(0.0, float(frequency.min())))
+    ax.grid(True, alpha=0.3)
+    _legend(ax)
+    return ax
+
+
+def plot_dispersion_k(k_real, frequencies, labels=None, ax=None):
+    """omega(k) curves: k (nk,) real rad/m, frequencies (nk, nmodes) Hz.
+
+    ``labels`` gives one name per mode; modes sharing a name share a colour and
+    one legend entry.
+    """
+    k_real = _vector(k_real, "k_real")
+    freqs = _columns(frequencies, k_real.size, "frequencies", "k_real")
+    names = _labels(labels, freqs.shape[1])
+    ax = _axes(ax)
+    colours: dict[str, str] = {}
+    for j, name in enumerate(names):
+        key = name if name is not None else f"mode {j}"
+        first = key not in colours
+        colours.setdefault(key, f"C{len(colours) % 10}")
+        ax.plot(k_real, freqs[:, j], color=colours[key],
+                label=name if (name is not None and first) else None)
+    ax.set_xlabel("Wavenumber k (rad/m)")
+    ax.set_ylabel("Frequency (Hz)")
+    ax.grid(True, alpha=0.3)
+    _legend(ax)
+    return ax
+
+
+# ------------------------------------------------------------- frequency response
+def _positive_or_nan(values: np.ndarray) -> np.ndarray:
+    return np.where(values > 0, values, np.nan)
+
+
+def plot_magnitude_phase(frequency, values, labels=None, *,
+                         ylabel: str = "Mobility (m/s/N)", axes=None):
+    """Magnitude (log-log) above phase (degrees) of complex responses.
+
+    values : (nf,) or (nf, nc) complex; labels : one per column or None;
+    axes : a pair (magnitude, phase) to draw into. Returns the pair.
+    """
+    frequency = _vector(frequency, "frequency")
+    v = _columns(values, frequency.size, "values", "frequency", dtype=complex)
+    names = _labels(labels, v.shape[1])
+    if axes is None:
+        plt = _pyplot()
+        _, axes = plt.subplots(2, 1, sharex=True, figsize=(6.4, 6.0), layout="constrained",
+                               gridspec_kw={"height_ratios": [2, 1]})
+    if len(axes) != 2:
+        raise ValueError(f"axes must be a pair (magnitude, phase), got {len(axes)} axes")
+    ax_mag, ax_phase = axes
+    for j, name in enumerate(names):
+        ax_mag.loglog(frequency, _positive_or_nan(np.abs(v[:, j])), label=name)
+        ax_phase.semilogx(frequency, np.degrees(np.angle(v[:, j])), label=name)
+    ax_mag.set_ylabel(ylabel)
+    ax_phase.set_ylabel("Phase (deg)")
+    ax_phase.set_xlabel("Frequency (Hz)")
+    ax_phase.set_ylim(-190, 190)
+    ax_phase.set_yticks([-180, -90, 0, 90, 180])
+    for ax in axes:
+        ax.grid(True, which="both", alpha=0.3)
+    _legend(ax_mag)
+    return ax_mag, ax_phase
+
+
+# ------------------------------------------------------------ one-third octaves
+def nominal_band_label(centre: float) -> str:
+    """Nominal one-third-octave label of a centre frequency: 31.5, 1k, 1.25k, ..."""
+    if not centre > 0:
+        raise ValueError(f"band centre frequency must be positive, got {centre}")
+    exponent = int(np.floor(np.log10(centre)))
+    mantissa = centre / 10.0**exponent
+    nearest = _NOMINAL_MANTISSAS[np.argmin(np.abs(np.log(_NOMINAL_MANTISSAS / mantissa)))]
+    nominal = round(nearest * 10.0**exponent, 6)
+    if nominal >= 1000:
+        return f"{nominal / 1000:g}k"
+    return f"{nominal:g}"
+
+
+def plot_band_values(centres, values, labels=None, *,
+                     ylabel: str = "Decay rate (dB/m)", ax=None, logy: bool = False):
+    """Values per one-third-octave band on a log frequency axis with nominal labels.
+
+    centres : (nb,) band centre frequencies (Hz); values : (nb,) or (nb, nc).
+    One line with markers per column; ``logy=True`` for a log value axis.
+    """
+    centres = _vector(centres, "centres")
+    if np.any(centres <= 0):
+        raise ValueError("centres must be positive band centre frequencies in Hz")
+    v = _columns(values, centres.size, "values", "centres")
+    names = _labels(labels, v.shape[1])
+    ax = _axes(ax)
+    for j, name in enumerate(names):
+        ax.plot(centres, v[:, j], marker=_MARKERS[j % len(_MARKERS)], markersize=4,
+                label=name)
+    ax.set_xscale("log")
+    if logy:
+        ax.set_yscale("log")
+        _plain_log_labels(ax.yaxis)
+    _band_ticks(ax, centres)
+    ax.set_xlabel("One-third-octave band centre frequency (Hz)")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which="major", alpha=0.3)
+    _legend(ax)
+    return ax
+
+
+def _band_ticks(ax, centres: np.ndarray) -> None:
+    from matplotlib.ticker import FixedFormatter, FixedLocator, NullLocator
+
+    ordered = np.sort(centres)
+    ax.xaxis.set_major_locator(FixedLocator(ordered))
+    ax.xaxis.set_major_formatter(FixedFormatter([nominal_band_label(c) for c in ordered]))
+    ax.xaxis.set_minor_locator(NullLocator())
+    ax.tick_params(axis="x", labelrotation=90, labelsize="small")
+    ax.set_xlim(ordered[0] * 2 ** (-1 / 6), ordered[-1] * 2 ** (1 / 6))
+
+
+# ------------------------------------------------------------------ along the rail
+def plot_along_rail(x, values, labels=None, *, ax=None, ylabel: str = "Level (dB)"):
+    """Levels (dB) against distance along the rail x (m); values (nx,) or (nx, nc)."""
+    x = _vector(x, "x")
+    v = _columns(values, x.size, "values", "x")
+    names = _labels(labels, v.shape[1])
+    ax = _axes(ax)
+    for j, name in enumerate(names):
+        ax.plot(x, v[:, j], label=name)
+    ax.set_xlabel("Distance along rail x (m)")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, alpha=0.3)
+    _legend(ax)
+    return ax
+
+
+# -------------------------------------------------------------------- convergence
+def convergence_slope(h, errors) -> float:
+    """Least-squares slope of log(error) against log(h) over positive finite points."""
+    h = np.asarray(h, dtype=float)
+    errors = np.asarray(errors, dtype=float)
+    ok = np.isfinite(h) & np.isfinite(errors) & (h > 0) & (errors > 0)
+    if np.count_nonzero(ok) < 2 or np.ptp(h[ok]) == 0:
+        return float("nan")
+    return float(np.polyfit(np.log(h[ok]), np.log(errors[ok]), 1)[0])
+
+
+def plot_convergence(h, errors, labels=None, *, ax=None, fit: bool = True,
+                     xlabel: str = "Element size h (m)", ylabel: str = "Relative error"):
+    """Log-log error against element size; the fitted slope goes in the legend.
+
+    h : (nh,); errors : (nh,) or (nh, nc).
+    """
+    h = _vector(h, "h")
+    e = _columns(errors, h.size, "errors", "h")
+    names = _labels(labels, e.shape[1])
+    ax = _axes(ax)
+    for j, name in enumerate(names):
+        label = name
+        if fit:
+            slope = convergence_slope(h, e[:, j])
+            rate = f"slope {slope:.2f}" if np.isfinite(slope) else "slope n/a"
+            label = f"{name} ({rate})" if name else rate
+        ax.loglog(h, _positive_or_nan(e[:, j]), marker=_MARKERS[j % len(_MARKERS)],
+                  label=label)
+    _plain_log_labels(ax.xaxis)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which="both", alpha=0.3)
+    _legend(ax)
+    return ax
+
+
+__all__ = [
+    "MAX_ATTENUATION", "convergence_slope", "nominal_band_label", "plot_along_rail",
+    "plot_band_values", "plot_convergence", "plot_dispersion", "plot_dispersion_k",
+    "plot_magnitude_phase", "propagating_mask", "save_figure",
+]
