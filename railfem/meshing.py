@@ -147,6 +147,7 @@ def save_mesh(mesh: SectionMesh, path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".npz")
     os.close(fd)
+    os.chmod(tmp, 0o644)  # mkstemp makes 0600 files; shipped meshes must be world-readable
     try:
         np.savez(tmp, vertices=mesh.vertices, triangles=mesh.triangles, h=mesh.h,
                  outline=mesh.profile.outline, name=mesh.profile.name, source=mesh.profile.source)

@@ -30,6 +30,10 @@ MAX_ATTENUATION = 0.25
 _MARKERS = ("o", "s", "^", "v", "D", "<", ">", "p", "h", "*", "X", "P")
 # preferred-number series of nominal one-third-octave centre frequencies (IEC 61260)
 _NOMINAL_MANTISSAS = np.array([1.0, 1.25, 1.6, 2.0, 2.5, 3.15, 4.0, 5.0, 6.3, 8.0, 10.0])
+# Permissions of written files: what open() would give (0666 minus the umask).
+_UMASK = os.umask(0)
+os.umask(_UMASK)
+_FILE_MODE = 0o666 & ~_UMASK
 _NON_GUI_BACKENDS = {"agg", "pdf", "pgf", "ps", "svg", "cairo", "template"}
 
 
@@ -78,6 +82,7 @@ def save_figure(fig, path, *, dpi: int = 150, close: bool = True) -> Path:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=suffix, dir=path.parent)
     os.close(fd)
     try:
+        os.chmod(tmp, _FILE_MODE)  # mkstemp gives 0600; figures get the usual mode
         fig.savefig(tmp, format=suffix.lstrip(".").lower(), dpi=dpi)
         os.replace(tmp, path)
     except BaseException:

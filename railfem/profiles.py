@@ -52,7 +52,7 @@ class RailProfile:
         object.__setattr__(self, "outline", pts)
         if pts[:, 1].max() - pts[:, 1].min() > 1.0:
             raise ValueError(
-                f"profile {self.name!r}: outline is {pts[:, 1].ptp():.3g} units high; "
+                f"profile {self.name!r}: outline is {np.ptp(pts[:, 1]):.3g} units high; "
                 "coordinates must be in metres (use load_outline_csv(..., unit='mm'))")
         if pts[:, 0].min() >= 0 or pts[:, 0].max() <= 0:
             raise ValueError(
@@ -111,7 +111,7 @@ def load_outline_csv(path, *, name: str | None = None, unit: str = "mm") -> Rail
     path = Path(path)
     try:
         text = path.read_text()
-    except OSError as exc:
+    except (OSError, UnicodeDecodeError) as exc:
         raise OSError(f"cannot read rail outline file {path}: {exc}") from exc
     rows = []
     for lineno, line in enumerate(text.splitlines(), 1):

@@ -34,6 +34,10 @@ _P2_SPLIT = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
 _SCALAR_BAR = {"title": "magnitude", "color": "black", "fmt": "%.2g", "vertical": True,
                "position_x": 0.87, "position_y": 0.1, "width": 0.06, "height": 0.5,
                "title_font_size": 16, "label_font_size": 14}
+# Permissions of written files: what open() would give (0666 minus the umask).
+_UMASK = os.umask(0)
+os.umask(_UMASK)
+_FILE_MODE = 0o666 & ~_UMASK
 # Each edge of a 6-node triangle as (start vertex, midside node, end vertex).
 _P2_EDGES = np.array([[0, 3, 1], [1, 4, 2], [2, 5, 0]])
 
@@ -156,6 +160,7 @@ def _write_atomic(plotter, path: Path) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".png", dir=path.parent)
     os.close(fd)
     try:
+        os.chmod(tmp, _FILE_MODE)  # mkstemp gives 0600; outputs get the usual 0644-like mode
         plotter.screenshot(tmp)
         os.replace(tmp, path)
     except BaseException:

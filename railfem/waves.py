@@ -120,7 +120,12 @@ def waves_at(ops: FamilyOperators, omega: float, *, method: str = "dense",
     if method == "dense":
         lam, x = _lambdas_dense(ops, omega)
     elif method == "shift-invert":
-        lam, x = _lambdas_shift_invert(ops, omega, n_waves)
+        try:
+            lam, x = _lambdas_shift_invert(ops, omega, n_waves)
+        except (spl.ArpackNoConvergence, RuntimeError) as exc:
+            log.warning("shift-invert wave solve failed at %.1f Hz (%s); using dense",
+                        omega / (2 * np.pi), exc)
+            lam, x = _lambdas_dense(ops, omega)
     else:
         raise ValueError(f"wave solver method must be 'dense' or 'shift-invert', got {method!r}")
     k = np.sqrt(lam.astype(complex))
@@ -155,8 +160,8 @@ class Dispersion:
     label: np.ndarray
 
 
-def solve(guide: Waveguide, frequency, *, families=FAMILIES, method: str = "dense",
-          n_waves: int = 60, progress=None) -> Dispersion:
+def solve(guide: Waveguide, frequency, *, families=FAMILIES, method: str = "shift-invert",
+          n_waves: int = 40, progress=None) -> Dispersion:
     """k(omega) of all requested families at each frequency (Hz), with wave-type labels."""
     from .labels import label_waves
 
@@ -210,7 +215,7 @@ def omega_of_k(guide: Waveguide, k, *, n_modes: int = 10, families=FAMILIES):
         labels = np.empty((len(k), n_modes), dtype=object)
         for i, kk in enumerate(k):
             K, M, ops = real_k_mode_matrices(guide, fam, kk)
-            w2, vec = spl.eigsh(K, k=n_modes, M=M, sigma=-1.0, which="LM")
+            w2, vec = spl.eigsh(K, k=n_modes, M=M, sigma=-(2 * np.pi * 100.0) ** 2, which="LM")
             o = np.argsort(w2)
             freqs[i] = np.sqrt(np.clip(w2[o], 0, None)) / (2 * np.pi)
             phi = vec[:, o].astype(complex)
@@ -230,7 +235,8 @@ def cut_on_frequencies(guide: Waveguide, n: int = 6, family: str | None = None) 
     vals = []
     for fam in fams:
         K, M, _ = real_k_mode_matrices(guide, fam, 0.0)
-        w2 = spl.eigsh(K, k=n + 4, M=M, sigma=-1.0, which="LM", return_eigenvectors=False)
+        w2 = spl.eigsh(K, k=n + 4, M=M, sigma=-(2 * np.pi * 100.0) ** 2, which="LM",
+                       return_eigenvectors=False)
         f = np.sqrt(np.clip(np.sort(w2), 0, None)) / (2 * np.pi)
         vals.append(f[f > 1.0])  # rigid motions sit at 0 Hz up to round-off
     return np.sort(np.concatenate(vals))[:n]

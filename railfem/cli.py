@@ -1,0 +1,301 @@
+"""The ``railfem`` command line.
+
+    railfem mesh --profile 60E1 --h 10 --out meshes/       mesh + quality summary
+    railfem mesh --shipped                                  regenerate meshes/ (60E1)
+    railfem dispersion --profile 60E1 --h 10 --fmin 50 --fmax 5000 --n 100 --out DIR
+    railfem dispersion --k-range 0.1 30 60 --out DIR        omega(k) instead of k(omega)
+    railfem convergence --profile 60E1 --sizes 20 15 10 7.5 5 --frequencies 1000 --out DIR
+
+Lengths on the command line are in mm (element sizes), frequencies in Hz, wavenumbers in
+rad/m. Each subcommand parses its arguments and calls one function of
+:mod:`railfem.jobs`; progress and messages go to stderr. Bad input (unknown profile,
+unreadable file, impossible values) ends with a one-line message and exit code 2.
+
+New subcommands register in ``COMMANDS`` (name -> (add_arguments, run)).
+"""
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from pathlib import Path
+
+import numpy as np
+
+log = logging.getLogger("railfem.cli")
+
+EXIT_BAD_INPUT = 2
+
+
+class BadInput(Exception):
+    """Raised for user errors detected by the CLI itself."""
+
+
+# ------------------------------------------------------------------ argument types
+def _positive(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not np.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
+
+
+def _non_negative(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not np.isfinite(value) or value < 0:
+        raise argparse.ArgumentTypeError(f"expected a number >= 0, got {text!r}")
+    return value
+
+
+def _count(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
+    return value
+
+
+def _add_profile(p: argparse.ArgumentParser, h_default: float | None = 10.0) -> None:
+    p.add_argument("--profile", default="60E1",
+                   help="'60E1' (= UIC60, default), 'rect:WIDTHxHEIGHT' in mm, or the path "
+                        "of an outline CSV (y,z in mm, counter-clockwise, foot at z = 0)")
+    if h_default is not None:
+        p.add_argument("--h", type=_positive, default=h_default, metavar="MM",
+                       help=f"element size in mm (default {h_default:g})")
+
+
+# ------------------------------------------------------------------------- mesh
+def _mesh_args(p: argparse.ArgumentParser) -> None:
+    _add_profile(p)
+    p.add_argument("--out", type=Path, default=None, metavar="DIR",
+                   help="output folder (default: current folder; with --shipped the "
+                        "package's meshes/ folder)")
+    p.add_argument("--shipped", action="store_true",
+                   help="regenerate all shipped meshes (60E1 at 20, 15, 10, 7.5, 5 mm); "
+                        "--profile and --h are ignored")
+
+
+def _mesh_run(args) -> int:
+    from . import jobs
+
+    if args.shipped:
+        results = jobs.run_shipped_meshes(args.out, progress=jobs.progress_logger("meshes"))
+        for r in results:
+            sys.stdout.write(jobs.format_mesh_quality(r["quality"]))
+        return 0
+    r = jobs.run_mesh(args.profile, args.h * 1e-3, args.out or Path("."))
+    sys.stdout.write(jobs.format_mesh_quality(r["quality"]))
+    sys.stdout.write(f"wrote {r['mesh']}, {r['json']}, {r['txt']}\n")
+    return 0
+
+
+# ------------------------------------------------------------------- dispersion
+def _dispersion_args(p: argparse.ArgumentParser) -> None:
+    _add_profile(p)
+    p.add_argument("--mesh", type=Path, default=None, metavar="FILE.npz",
+                   help="use this saved mesh (railfem mesh) instead of --profile/--h")
+    g = p.add_argument_group("frequencies (k(omega), default) or wavenumbers (omega(k))")
+    g.add_argument("--fmin", type=_positive, default=None, metavar="HZ",
+                   help="lowest frequency in Hz (default 50)")
+    g.add_argument("--fmax", type=_positive, default=None, metavar="HZ",
+                   help="highest frequency in Hz (default 5000)")
+    g.add_argument("--n", type=_count, default=None,
+                   help="number of frequencies from fmin to fmax (default 100)")
+    g.add_argument("--spacing", choices=("linear", "log"), default="linear",
+                   help="frequency spacing between fmin and fmax (default linear)")
+    g.add_argument("--frequencies", type=_positive, nargs="+", default=None, metavar="HZ",
+                   help="explicit list of frequencies in Hz")
+    g.add_argument("--k-range", type=_non_negative, nargs=3, default=None,
+                   metavar=("KMIN", "KMAX", "NK"),
+                   help="omega(k) at NK real wavenumbers from KMIN to KMAX (rad/m)")
+    g.add_argument("--n-modes", type=_count, default=12,
+                   help="modes per symmetry family for --k-range (default 12)")
+    s = p.add_argument_group("solver and renders")
+    s.add_argument("--loss-factor", type=_non_negative, default=0.0,
+                   help="rail loss factor eta (default 0: undamped)")
+    s.add_argument("--method", choices=("shift-invert", "dense"), default="shift-invert",
+                   help="k(omega) solver: shift-invert (the n-waves waves of smallest |k|, "
+                        "fast, default) or dense (all waves)")
+    s.add_argument("--n-waves", type=_count, default=40,
+                   help="waves per family for shift-invert (default 40)")
+    s.add_argument("--render-frequency", type=_positive, default=None, metavar="HZ",
+                   help="render the propagating wave shapes at this frequency "
+                        "(default 2000 Hz)")
+    s.add_argument("--no-render", action="store_true", help="skip the wave-shape renders")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/dispersion"),
+                   metavar="DIR", help="output folder (default railfem-output/dispersion)")
+
+
+def _dispersion_run(args) -> int:
+    from . import jobs
+
+    freq_opts = any(v is not None for v in (args.fmin, args.fmax, args.n))
+    if args.k_range is not None and (freq_opts or args.frequencies is not None):
+        raise BadInput("--k-range cannot be combined with frequency options")
+    if args.frequencies is not None and freq_opts:
+        raise BadInput("give either --frequencies or --fmin/--fmax/--n, not both")
+    frequencies = k_values = None
+    if args.k_range is not None:
+        kmin, kmax, nk = args.k_range
+        if nk < 1 or nk != int(nk):
+            raise BadInput(f"--k-range NK must be an integer >= 1, got {nk:g}")
+        if kmax < kmin:
+            raise BadInput(f"--k-range needs KMIN <= KMAX, got {kmin:g} > {kmax:g}")
+        k_values = np.linspace(kmin, kmax, int(nk))
+    elif args.frequencies is not None:
+        frequencies = np.array(args.frequencies)
+    else:
+        fmin = 50.0 if args.fmin is None else args.fmin
+        fmax = 5000.0 if args.fmax is None else args.fmax
+        n = 100 if args.n is None else args.n
+        if fmax < fmin:
+            raise BadInput(f"--fmax ({fmax:g} Hz) must not be below --fmin ({fmin:g} Hz)")
+        frequencies = (np.geomspace if args.spacing == "log" else np.linspace)(fmin, fmax, n)
+    if args.no_render:
+        render = None
+    else:
+        render = (jobs.DEFAULT_RENDER_FREQUENCY if args.render_frequency is None
+                  else args.render_frequency)
+    paths = jobs.run_dispersion(args.profile, args.h * 1e-3, args.out, frequencies=frequencies,
+                                k_values=k_values, mesh_file=args.mesh,
+                                loss_factor=args.loss_factor, method=args.method,
+                                n_waves=args.n_waves, n_modes=args.n_modes,
+                                render_frequency=render)
+    sys.stdout.write(f"wrote {paths['csv']}\nwrote {paths['png']}\n")
+    for p in paths["renders"]:
+        sys.stdout.write(f"wrote {p}\n")
+    return 0
+
+
+# ------------------------------------------------------------------ convergence
+def _convergence_args(p: argparse.ArgumentParser) -> None:
+    _add_profile(p, h_default=None)
+    p.add_argument("--sizes", type=_positive, nargs="+", default=[20, 15, 10, 7.5, 5],
+                   metavar="MM", help="element sizes in mm (default 20 15 10 7.5 5)")
+    p.add_argument("--frequencies", type=_positive, nargs="*", default=[], metavar="HZ",
+                   help="frequencies (Hz) at which the propagating wavenumbers are compared")
+    p.add_argument("--n-cut-on", type=_count, default=6,
+                   help="number of cross-section cut-on frequencies (default 6)")
+    p.add_argument("--reference", choices=("richardson", "finest"), default="richardson",
+                   help="error reference: Richardson extrapolation of the three finest "
+                        "meshes (default) or the finest mesh")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/convergence"),
+                   metavar="DIR", help="output folder (default railfem-output/convergence)")
+
+
+def _convergence_run(args) -> int:
+    from . import jobs
+
+    sizes = np.array(args.sizes) * 1e-3
+    paths = jobs.run_convergence(args.profile, sizes, args.out, frequencies=args.frequencies,
+                                 n_cut_on=args.n_cut_on, reference=args.reference)
+    st = paths["study"]
+    sys.stdout.write("h (mm)  DOFs   cut-on frequencies (Hz)\n")
+    for i, h in enumerate(st.sizes):
+        sys.stdout.write(f"{h * 1e3:6g} {st.n_dofs[i]:6d}  "
+                         + " ".join(f"{v:9.1f}" for v in st.cut_on[i]) + "\n")
+    sys.stdout.write("reference     " + " ".join(f"{v:9.1f}" for v in st.cut_on_reference)
+                     + f"  ({st.reference['cut_on']})\n")
+    sys.stdout.write("rate          " + " ".join(f"{v:9.2f}" for v in st.cut_on_rate) + "\n")
+    sys.stdout.write(f"wrote {paths['csv']}\nwrote {paths['png']}\nwrote {paths['json']}\n")
+    return 0
+
+
+#: name -> (add_arguments(parser), run(args) -> exit code, help)
+COMMANDS = {
+    "mesh": (_mesh_args, _mesh_run, "mesh a rail profile and write a mesh-quality summary"),
+    "dispersion": (_dispersion_args, _dispersion_run,
+                   "free-rail dispersion curves (CSV, plot) and wave-shape renders"),
+    "convergence": (_convergence_args, _convergence_run,
+                    "mesh-convergence study of cut-on frequencies and wavenumbers"),
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="railfem",
+        description="Railway track vibration with 2.5D waveguide finite elements.")
+    parser.add_argument("-v", "--verbose", action="count", default=0,
+                        help="more log output (-vv for debug)")
+    parser.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
+    for name, (add_args, run, help_text) in COMMANDS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        add_args(p)
+        p.set_defaults(_run=run)
+    return parser
+
+
+class _StderrHandler(logging.StreamHandler):
+    """Writes to whatever sys.stderr is at the time of each record (it may be replaced)."""
+
+    def __init__(self):
+        super().__init__(sys.stderr)
+
+    @property
+    def stream(self):
+        return sys.stderr
+
+    @stream.setter
+    def stream(self, value):
+        pass
+
+
+_QUIET_MODULES = ("railfem.meshing", "railfem.waveguide", "railfem.plotting",
+                  "railfem.rendering")
+
+
+def _setup_logging(verbose: int, quiet: bool):
+    """Send railfem's log records to stderr; returns a function that undoes it (main() is
+    also called in-process, e.g. by tests, and must leave logging as it found it)."""
+    level = logging.WARNING if quiet else (logging.DEBUG if verbose > 1 else logging.INFO)
+    handler = _StderrHandler()
+    handler.setFormatter(logging.Formatter("railfem %(asctime)s %(levelname)s %(message)s",
+                                           datefmt="%H:%M:%S"))
+    root = logging.getLogger("railfem")
+    saved = (root.handlers[:], root.level, root.propagate,
+             {n: logging.getLogger(n).level for n in _QUIET_MODULES})
+    root.handlers[:] = [handler]
+    root.setLevel(level)
+    root.propagate = False
+    if verbose < 1:  # library chatter below the job level stays out of the way
+        for name in _QUIET_MODULES:
+            logging.getLogger(name).setLevel(max(level, logging.WARNING))
+
+    def restore():
+        root.handlers[:], lvl, root.propagate, levels = saved[0], saved[1], saved[2], saved[3]
+        root.setLevel(lvl)
+        for n, lv in levels.items():
+            logging.getLogger(n).setLevel(lv)
+
+    return restore
+
+
+def main(argv=None) -> int:
+    """Entry point of the ``railfem`` command; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)  # exits with code 2 on malformed arguments
+    restore_logging = _setup_logging(args.verbose, args.quiet)
+    try:
+        return int(args._run(args) or 0)
+    except (BadInput, ValueError, OSError, KeyError) as exc:
+        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        log.debug("traceback of the error below", exc_info=True)
+        sys.stderr.write(f"railfem {args.command}: error: {msg}\n")
+        return EXIT_BAD_INPUT
+    except KeyboardInterrupt:
+        sys.stderr.write("railfem: interrupted\n")
+        return 130
+    finally:
+        restore_logging()
+
+
+if __name__ == "__main__":  # python -m railfem.cli
+    sys.exit(main())

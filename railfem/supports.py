@@ -1,0 +1,363 @@
+"""Rail supports: pad, sleeper and ballast, continuous and per-support discrete layouts.
+
+METHOD.md section 2. One support per fastener: rail pad ``kp* = kp (1 + i eta_p)`` on top of
+the sleeper mass ``ms`` (per rail) on the ballast ``kb* = kb (1 + i eta_b)``. Seen from the
+rail (sleeper base fixed) the support's dynamic stiffness is
+
+    K_s(omega) = kp* (kb* - omega^2 ms) / (kp* + kb* - omega^2 ms)
+
+i.e. the pad in series with the sleeper/ballast dynamic stiffness ``kb* - omega^2 ms``.
+Its mobility is ``Y_s = i omega / K_s`` and its receptance ``1 / K_s``.
+
+Conventions (railfem.conventions): exp(+i omega t); frequency is axis 0 of every
+frequency-dependent array; SI units throughout (N/m, kg, m, rad/s).
+"""
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+log = logging.getLogger(__name__)
+
+DEFAULT_SPACING = 0.6  # m, sleeper spacing of METHOD.md Table 1
+DEFAULT_SLEEPER_MASS = 120.0  # kg per rail, METHOD.md section 2
+
+
+def _check_stiffness(name: str, value: float) -> None:
+    # Stiffness may be 0 (a missing / voided element) or +inf (rigid), never NaN or negative.
+    if isinstance(value, complex) or not isinstance(value, (int, float, np.floating, np.integer)):
+        raise TypeError(
+            f"SupportParameters.{name} must be a real number in N/m, got {value!r} "
+            f"(give the loss factor separately in eta_*)")
+    if math.isnan(value) or value < 0:
+        raise ValueError(
+            f"SupportParameters.{name} = {value!r} N/m is not allowed: use a stiffness >= 0 "
+            f"(0 for a missing/voided element, float('inf') for a rigid one)")
+
+
+def _check_loss_factor(name: str, value: float) -> None:
+    if not np.isfinite(value) or value < 0:
+        raise ValueError(
+            f"SupportParameters.{name} = {value!r} is not allowed: use a finite loss factor "
+            f">= 0 (a negative loss factor creates energy)")
+
+
+@dataclass(frozen=True, kw_only=True)
+class SupportParameters:
+    """Parameters of one support (one fastener, one rail).
+
+    kp: rail pad stiffness per fastener (N/m); 0 = no pad contact, inf = rigid pad.
+    eta_p: rail pad loss factor (-), kp* = kp (1 + i eta_p).
+    ms: sleeper mass per rail (kg); 0 is allowed (pad and ballast springs in series).
+    kb: ballast stiffness per fastener and rail (N/m); 0 = voided (hanging) sleeper,
+        inf = rigid ballast (the sleeper then does not move).
+    eta_b: ballast loss factor (-), kb* = kb (1 + i eta_b).
+    """
+
+    kp: float
+    eta_p: float = 0.0
+    ms: float = DEFAULT_SLEEPER_MASS
+    kb: float
+    eta_b: float = 0.0
+
+    def __post_init__(self):
+        _check_stiffness("kp", self.kp)
+        _check_stiffness("kb", self.kb)
+        _check_loss_factor("eta_p", self.eta_p)
+        _check_loss_factor("eta_b", self.eta_b)
+        if not np.isfinite(self.ms) or self.ms < 0:
+            raise ValueError(
+                f"SupportParameters.ms = {self.ms!r} kg is not allowed: use a finite sleeper "
+                f"mass >= 0 kg per rail (0 puts pad and ballast directly in series)")
+        if self.kp == 0 and self.kb == 0 and self.ms == 0:
+            log.debug("SupportParameters with kp = kb = ms = 0 is an absent support")
+
+    @property
+    def kp_complex(self) -> complex:
+        """kp (1 + i eta_p) in N/m (inf if the pad is rigid)."""
+        return _complex_stiffness(self.kp, self.eta_p)
+
+    @property
+    def kb_complex(self) -> complex:
+        """kb (1 + i eta_b) in N/m (inf if the ballast is rigid)."""
+        return _complex_stiffness(self.kb, self.eta_b)
+
+    def scaled(self, weight: float) -> "SupportParameters":
+        """The same chain scaled by ``weight`` (kp, ms, kb all times weight): K_s scales too."""
+        if not np.isfinite(weight) or weight < 0:
+            raise ValueError(f"support weight must be finite and >= 0, got {weight!r}")
+        def scale(k):  # 0 * inf is an absent element, not NaN
+            return 0.0 if weight == 0 else k * weight
+        return replace(self, kp=scale(self.kp), ms=scale(self.ms), kb=scale(self.kb))
+
+
+def _complex_stiffness(k: float, eta: float) -> complex:
+    # inf * (1 + i eta) would give inf + inf j (or nan j for eta = 0): keep a rigid element real.
+    return complex(math.inf) if math.isinf(k) else k * (1 + 1j * eta)
+
+
+def _as_omega(omega) -> np.ndarray:
+    w = np.asarray(omega, dtype=float)
+    if np.any(~np.isfinite(w)) or np.any(w < 0):
+        raise ValueError("omega must be finite and >= 0 rad/s (angular frequency, not Hz)")
+    return w
+
+
+def dynamic_stiffness(params: SupportParameters, omega) -> np.ndarray:
+    """Dynamic stiffness K_s(omega) of one support seen from the rail (N/m, complex).
+
+    K_s = kp* (kb* - omega^2 ms) / (kp* + kb* - omega^2 ms). Vectorised: the result has the
+    shape of ``omega`` (frequency on axis 0). Limits handled exactly:
+    rigid ballast (kb = inf) gives kp*; rigid pad (kp = inf) gives kb* - omega^2 ms; both
+    rigid gives inf; kp = 0 gives 0; an undamped two-spring antiresonance
+    (kp + kb = omega^2 ms) gives inf.
+    """
+    w = _as_omega(omega)
+    kp, zb = params.kp_complex, params.kb_complex
+    if math.isinf(params.kp) and math.isinf(params.kb):
+        return np.full(w.shape, complex(math.inf))
+    if math.isinf(params.kb):
+        return np.full(w.shape, kp, dtype=complex)
+    z = np.asarray(zb - w**2 * params.ms, dtype=complex)  # sleeper on ballast
+    if math.isinf(params.kp):
+        return z
+    num = np.asarray(kp * z)
+    den = np.asarray(kp + z)
+    out = np.empty(w.shape, dtype=complex)
+    zero_den = den == 0
+    # den = 0 with num != 0 is the undamped pole of K_s; num = den = 0 only if kp = 0.
+    out[zero_den] = np.where(num[zero_den] == 0, 0.0, complex(math.inf))
+    out[~zero_den] = num[~zero_den] / den[~zero_den]
+    return out
+
+
+def support_receptance(params: SupportParameters, omega) -> np.ndarray:
+    """Receptance 1 / K_s of one support (m/N); mobility is 1j * omega * receptance."""
+    k = dynamic_stiffness(params, omega)
+    out = np.zeros(k.shape, dtype=complex)  # a rigid support (K_s = inf) does not deflect
+    regular = np.isfinite(k) & (k != 0)
+    out[regular] = 1.0 / k[regular]
+    out[k == 0] = complex(math.inf)
+    return out
+
+
+def continuous_stiffness(params: SupportParameters, omega, spacing: float = DEFAULT_SPACING):
+    """Support stiffness per unit length of rail, K_s(omega) / spacing (N/m^2, complex)."""
+    if not np.isfinite(spacing) or spacing <= 0:
+        raise ValueError(f"spacing = {spacing!r} m is not allowed: give the sleeper spacing > 0 m")
+    return dynamic_stiffness(params, omega) / spacing
+
+
+# ---------------------------------------------------------------------------------------------
+# Table 1 presets
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrackPreset:
+    """A named track parameter set of METHOD.md Table 1.
+
+    name: key in PRESETS. support: SupportParameters per fastener and rail.
+    eta_r: rail loss factor (-), E* = E (1 + i eta_r). spacing: sleeper spacing (m).
+    description: free text.
+    """
+
+    name: str
+    support: SupportParameters
+    eta_r: float
+    spacing: float = DEFAULT_SPACING
+    description: str = ""
+
+    def __post_init__(self):
+        if not np.isfinite(self.eta_r) or self.eta_r < 0:
+            raise ValueError(f"TrackPreset.eta_r = {self.eta_r!r}: use a rail loss factor >= 0")
+        if not np.isfinite(self.spacing) or self.spacing <= 0:
+            raise ValueError(f"TrackPreset.spacing = {self.spacing!r} m: use a spacing > 0 m")
+
+
+def _table1(name, kp_mn, eta_p, kb_mn, eta_b, eta_r, description):
+    return TrackPreset(
+        name=name,
+        support=SupportParameters(kp=kp_mn * 1e6, eta_p=eta_p, ms=DEFAULT_SLEEPER_MASS,
+                                  kb=kb_mn * 1e6, eta_b=eta_b),
+        eta_r=eta_r, description=description)
+
+
+PRESETS: dict[str, TrackPreset] = {
+    p.name: p
+    for p in (
+        _table1("stiff", 600, 0.05, 48, 2.0, 0.05, "stiff pads (METHOD.md Table 1)"),
+        _table1("medium", 300, 0.10, 90, 1.5, 0.04, "medium pads (METHOD.md Table 1)"),
+        _table1("soft", 120, 0.15, 120, 1.0, 0.03, "soft pads (METHOD.md Table 1)"),
+        _table1("very_soft", 60, 0.20, 360, 0.5, 0.02, "very soft pads (METHOD.md Table 1)"),
+        _table1("site", 600, 0.25, 42, 1.0, 0.01,
+                "site, estimated, unloaded (METHOD.md Table 1)"),
+    )
+}
+
+
+def preset(name: str) -> TrackPreset:
+    """The Table 1 preset ``name`` (one of PRESETS; 'very soft' and 'very-soft' also work)."""
+    key = str(name).strip().lower().replace(" ", "_").replace("-", "_")
+    try:
+        return PRESETS[key]
+    except KeyError:
+        raise KeyError(
+            f"unknown track preset {name!r}; valid names: {', '.join(PRESETS)}") from None
+
+
+# ---------------------------------------------------------------------------------------------
+# Discrete layouts
+
+
+@dataclass(frozen=True)
+class SpringSet:
+    """The point springs a layout puts on the rail.
+
+    x: spring positions along the rail (m). weight: fraction of its support each spring
+    carries (-), summing to 1 per support. support_index: which support each spring belongs to.
+    """
+
+    x: np.ndarray
+    weight: np.ndarray
+    support_index: np.ndarray
+
+
+@dataclass(frozen=True, kw_only=True)
+class SupportLayout:
+    """Discrete supports along the rail; each support may differ (inhomogeneous track).
+
+    positions: support centre positions x_j along the rail (m), a tuple of floats.
+    params: one SupportParameters per support (same length as positions).
+    pad_length: length of rail over which each support is spread (m); 0 = point support.
+    n_rows: number of spring rows per support along the rail (-). Rows sit at the midpoints of
+        n_rows equal slices of the pad length, each carrying 1/n_rows of the support (the pad
+        chain scaled by 1/n_rows, so the rows are independent).
+    """
+
+    positions: tuple[float, ...]
+    params: tuple[SupportParameters, ...]
+    pad_length: float = 0.0
+    n_rows: int = 1
+
+    def __post_init__(self):
+        # Accept any sequences but store tuples so the dataclass stays immutable and hashable.
+        object.__setattr__(self, "positions", tuple(float(x) for x in self.positions))
+        object.__setattr__(self, "params", tuple(self.params))
+        if len(self.positions) == 0:
+            raise ValueError("SupportLayout needs at least one support position")
+        if len(self.positions) != len(self.params):
+            raise ValueError(
+                f"SupportLayout has {len(self.positions)} positions but {len(self.params)} "
+                f"params: give one SupportParameters per support")
+        if not all(np.isfinite(self.positions)):
+            raise ValueError("SupportLayout.positions must all be finite (m)")
+        for j, p in enumerate(self.params):
+            if not isinstance(p, SupportParameters):
+                raise TypeError(f"SupportLayout.params[{j}] is {type(p).__name__}, "
+                                f"expected SupportParameters")
+        if not np.isfinite(self.pad_length) or self.pad_length < 0:
+            raise ValueError(f"SupportLayout.pad_length = {self.pad_length!r} m: use >= 0 m")
+        if int(self.n_rows) != self.n_rows or self.n_rows < 1:
+            raise ValueError(f"SupportLayout.n_rows = {self.n_rows!r}: use an integer >= 1")
+        if self.n_rows > 1 and self.pad_length == 0:
+            raise ValueError(
+                f"SupportLayout.n_rows = {self.n_rows} needs pad_length > 0 m "
+                f"(or set n_rows = 1 for point supports)")
+
+    def __len__(self) -> int:
+        return len(self.positions)
+
+    @property
+    def x(self) -> np.ndarray:
+        """Support centre positions as an array (m)."""
+        return np.asarray(self.positions)
+
+    def row_offsets(self) -> np.ndarray:
+        """Offsets of the spring rows from the support centre (m), midpoint rule."""
+        n = int(self.n_rows)
+        return (np.arange(n) + 0.5) / n * self.pad_length - self.pad_length / 2
+
+    def springs(self) -> SpringSet:
+        """All point springs, support by support, rows in increasing x."""
+        off = self.row_offsets()
+        n = len(off)
+        x = (self.x[:, None] + off[None, :]).ravel()
+        idx = np.repeat(np.arange(len(self)), n)
+        return SpringSet(x=x, weight=np.full(x.shape, 1.0 / n), support_index=idx)
+
+    def spring_stiffness(self, omega) -> np.ndarray:
+        """Dynamic stiffness of every spring, shape (n_freq, n_springs) (N/m, complex)."""
+        w = np.atleast_1d(_as_omega(omega))
+        per_support = np.stack([dynamic_stiffness(p, w) for p in self.params], axis=-1)
+        s = self.springs()
+        per_spring = per_support[:, s.support_index]
+        # complex inf * weight would give inf + nan j: a rigid support stays rigid when split
+        with np.errstate(invalid="ignore"):
+            scaled = per_spring * s.weight[None, :]
+        return np.where(np.isinf(per_spring), complex(math.inf), scaled)
+
+    def nearest_support(self, x: float) -> int:
+        """Index of the support whose centre is closest to x (m)."""
+        return int(np.argmin(np.abs(self.x - x)))
+
+
+def uniform_layout(params: SupportParameters, spacing: float = DEFAULT_SPACING, n: int = 131,
+                   centre: float = 0.0, pad_length: float = 0.0,
+                   n_rows: int = 1) -> SupportLayout:
+    """n identical supports at ``spacing`` (m), symmetric about ``centre`` (m).
+
+    With n odd a support sits at ``centre``; with n even ``centre`` is mid-span.
+    """
+    if not np.isfinite(spacing) or spacing <= 0:
+        raise ValueError(f"spacing = {spacing!r} m is not allowed: use a spacing > 0 m")
+    if int(n) != n or n < 1:
+        raise ValueError(f"n = {n!r}: the number of supports must be an integer >= 1")
+    x = centre + (np.arange(int(n)) - (n - 1) / 2) * spacing
+    return SupportLayout(positions=tuple(x), params=(params,) * int(n),
+                         pad_length=pad_length, n_rows=n_rows)
+
+
+def with_support(layout: SupportLayout, index: int, params: SupportParameters) -> SupportLayout:
+    """A copy of ``layout`` with support ``index`` (Python indexing) replaced by ``params``."""
+    n = len(layout)
+    if not -n <= index < n:
+        raise IndexError(f"support index {index} out of range for a layout of {n} supports")
+    new = list(layout.params)
+    new[index] = params
+    return replace(layout, params=tuple(new))
+
+
+def foot_spring_weights(y_nodes, foot_width: float) -> np.ndarray:
+    """Tributary lateral width of each foot spring node over the foot width (sum = 1).
+
+    Node i carries the strip between the midpoints to its neighbours; the outermost nodes
+    extend to the foot edges -foot_width/2 and +foot_width/2 (y = 0 on the rail axis).
+    Weights are returned in the order of ``y_nodes`` (which need not be sorted).
+    """
+    y = np.asarray(y_nodes, dtype=float)
+    if y.ndim != 1 or y.size == 0:
+        raise ValueError("y_nodes must be a non-empty 1-D sequence of lateral positions (m)")
+    if not np.isfinite(foot_width) or foot_width <= 0:
+        raise ValueError(f"foot_width = {foot_width!r} m: use the foot width > 0 m")
+    half = foot_width / 2
+    if np.any(np.abs(y) > half * (1 + 1e-9)):
+        raise ValueError(f"y_nodes must lie within the foot, |y| <= {half} m; got {y}")
+    order = np.argsort(y)
+    ys = y[order]
+    if np.any(np.diff(ys) <= 0):
+        raise ValueError("y_nodes contains repeated positions: each spring node must be distinct")
+    edges = np.concatenate(([-half], (ys[1:] + ys[:-1]) / 2, [half]))
+    w_sorted = np.diff(edges) / foot_width
+    w = np.empty_like(w_sorted)
+    w[order] = w_sorted
+    return w
+
+
+__all__ = [
+    "SupportParameters", "dynamic_stiffness", "support_receptance", "continuous_stiffness",
+    "TrackPreset", "PRESETS", "preset", "SpringSet", "SupportLayout", "uniform_layout",
+    "with_support", "foot_spring_weights", "DEFAULT_SPACING", "DEFAULT_SLEEPER_MASS",
+]

@@ -1,0 +1,129 @@
+"""The railfem command line and the jobs behind it (small rectangle meshes: fast)."""
+import csv
+import json
+
+import numpy as np
+import pytest
+
+from railfem import cli, convergence, jobs, meshing, profiles
+
+
+def read_csv(path):
+    with open(path) as fh:
+        rows = [r for r in fh if not r.startswith("#")]
+    return list(csv.DictReader(rows))
+
+
+def test_mesh_command_writes_mesh_and_quality(tmp_path, capsys):
+    assert cli.main(["-q", "mesh", "--profile", "rect:20x50", "--h", "5",
+                     "--out", str(tmp_path)]) == 0
+    mesh = meshing.load_mesh(tmp_path / "rect20x50_h5mm.npz")
+    assert mesh.h == pytest.approx(0.005)
+    q = json.loads((tmp_path / "rect20x50_h5mm_quality.json").read_text())
+    assert q["n_dofs"] == 3 * q["n_p2_nodes"]
+    assert q["n_dofs"] == sum(q["n_dofs_family"].values())
+    assert q["min_angle_deg"] > 20 and q["max_aspect_ratio"] < 2
+    assert all(abs(e) < 1e-12 for e in q["relative_error_vs_polygon"].values())
+    assert "DOFs" in capsys.readouterr().out
+    assert (tmp_path / "rect20x50_h5mm_quality.txt").exists()
+
+
+def test_mesh_quality_of_60E1_reports_EN13674_errors():
+    q = jobs.mesh_quality(meshing.mesh_profile("60E1", 0.01))
+    assert set(q["relative_error_vs_EN13674_1"]) == {"area", "centroid_z", "I_y", "I_z"}
+    assert all(abs(e) < 0.005 for e in q["relative_error_vs_EN13674_1"].values())
+    assert "vs EN 13674-1" in jobs.format_mesh_quality(q)
+
+
+def test_dispersion_command_k_of_omega(tmp_path):
+    out = tmp_path / "disp"
+    assert cli.main(["-q", "dispersion", "--profile", "rect:20x50", "--h", "10",
+                     "--frequencies", "500", "2000", "--render-frequency", "2000",
+                     "--out", str(out)]) == 0
+    header = (out / "dispersion.csv").read_text()
+    assert "k_re, k_im" in header and "rad/m" in header
+    rows = read_csv(out / "dispersion.csv")
+    assert set(rows[0]) == {"frequency_hz", "wave", "family", "label", "k_re", "k_im",
+                            "propagating"}
+    assert {float(r["frequency_hz"]) for r in rows} == {500.0, 2000.0}
+    assert all(float(r["k_im"]) <= 1e-9 for r in rows)
+    prop = {r["label"] for r in rows if r["propagating"] == "1" and r["frequency_hz"] == "500"}
+    assert {"vertical bending", "lateral bending", "torsion", "longitudinal"} <= prop
+    assert (out / "dispersion.png").stat().st_size > 1000
+    renders = sorted((out / "renders").glob("*.png"))
+    assert len(renders) == 4  # the four beam waves propagate at 2 kHz on the bar
+    meta = json.loads((out / "run.json").read_text())
+    assert meta["mode"] == "k(omega)" and meta["profile"] == "rect20x50"
+
+
+def test_dispersion_command_omega_of_k(tmp_path):
+    out = tmp_path / "wk"
+    assert cli.main(["-q", "dispersion", "--profile", "rect:20x50", "--h", "10",
+                     "--k-range", "0.5", "5", "3", "--n-modes", "3", "--no-render",
+                     "--out", str(out)]) == 0
+    rows = read_csv(out / "dispersion.csv")
+    assert len(rows) == 3 * 2 * 3
+    assert {float(r["k_re"]) for r in rows} == {0.5, 2.75, 5.0}
+    assert not (out / "renders").exists()
+
+
+def test_wave_shapes_are_full_per_node_shapes():
+    from railfem import waveguide
+
+    g = waveguide.assemble(meshing.mesh_profile(profiles.rectangle(0.02, 0.05), 0.01))
+    shapes = jobs.wave_shapes(g, 1000.0)
+    labels = {s.label for s in shapes}
+    assert labels == {"vertical bending", "longitudinal", "lateral bending", "torsion"}
+    for s in shapes:
+        assert s.shape.shape == (len(g.nodes), 3)
+        assert np.linalg.norm(s.shape) == pytest.approx(1.0)
+        assert np.abs(s.shape[:, 1:].imag).max() < 1e-6 * np.abs(s.shape[:, 1:]).max()
+    vb = next(s for s in shapes if s.label == "vertical bending").shape
+    assert np.abs(vb[:, 2]).min() > 0.9 * np.abs(vb[:, 2]).max()  # whole section moves in z
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["dispersion", "--profile", "nonsense", "--no-render"], "unknown profile"),
+    (["dispersion", "--fmin", "500", "--fmax", "100", "--no-render"], "fmax"),
+    (["dispersion", "--mesh", "/nonexistent/m.npz", "--no-render"], "railfem mesh"),
+    (["mesh", "--profile", "rect:20x50", "--h", "80"], "element size"),
+    (["convergence", "--profile", "rect:20x50", "--sizes", "5"], "at least two"),
+])
+def test_bad_input_exits_with_code_2(argv, message, tmp_path, capsys):
+    assert cli.main([*argv, "--out", str(tmp_path / "o")]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_malformed_arguments_exit_with_code_2(capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["mesh", "--h", "-3"])
+    assert exc.value.code == 2
+    assert "positive" in capsys.readouterr().err
+
+
+def test_richardson_recovers_order_and_limit():
+    h = np.array([0.4, 0.25, 0.1])
+    v0, p = convergence.richardson(h, 3.0 + 2.0 * h**3.5)
+    assert v0 == pytest.approx(3.0, rel=1e-10) and p == pytest.approx(3.5, rel=1e-8)
+    with pytest.raises(ValueError, match="monoton"):
+        convergence.richardson(h, [1.0, 2.0, 1.5])
+
+
+def test_convergence_study_and_command(tmp_path):
+    st = convergence.convergence_study("rect:20x50", [0.01, 0.005, 0.0025],
+                                       frequencies=[1000.0], n_cut_on=2)
+    assert st.cut_on.shape == (3, 2) and st.n_dofs[0] < st.n_dofs[-1]
+    assert np.all(np.diff(st.cut_on, axis=0) < 0)  # converges from above
+    assert st.reference["cut_on"] == "richardson"
+    assert np.all((st.cut_on_rate > 2) & (st.cut_on_rate < 6))  # coarse: pre-asymptotic
+    assert set(st.wave_label[0]) == {"vertical bending", "longitudinal", "lateral bending",
+                                     "torsion"}
+    assert np.all(np.isfinite(st.wavenumbers))
+    out = tmp_path / "conv"
+    assert cli.main(["-q", "convergence", "--profile", "rect:20x50", "--sizes", "10", "5",
+                     "--n-cut-on", "2", "--reference", "finest", "--out", str(out)]) == 0
+    rows = read_csv(out / "convergence.csv")
+    assert [r["h_mm"] for r in rows] == ["10", "5", "reference", "rate"]
+    assert (out / "convergence.png").exists()
+    data = json.loads((out / "convergence.json").read_text())
+    assert data["reference"]["cut_on"] == "finest"
