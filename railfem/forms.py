@@ -20,8 +20,7 @@ def b1(u):
 
 
 def b2(u):
-    v = u.value
-    return (v[0], 0.0, 0.0, 0.0, v[2], v[1])
+    return (u[0], 0.0, 0.0, 0.0, u[2], u[1])
 
 
 def energy(e, f, lam, mu):
@@ -52,4 +51,4 @@ def k2(u, v, w):
 @BilinearForm
 def mass(u, v, w):
     """M = int rho N^T N dA"""
-    return w.rho * (u.value[0] * v.value[0] + u.value[1] * v.value[1] + u.value[2] * v.value[2])
+    return w.rho * (u[0] * v[0] + u[1] * v[1] + u[2] * v[2])

@@ -149,6 +149,28 @@ def _denominators(ops, k, x_ordered):
     return ops.dA(k, x_ordered)
 
 
+def frozen_tail(ops: FamilyOperators, omega0: float, n_waves: int) -> Waves:
+    """The waves beyond the ``n_waves`` smallest |k| at omega0, from the full (dense) set.
+
+    They are near-field waves with |Im k| of hundreds of rad/m whose wavenumbers and shapes
+    hardly change with frequency (their decay length is far below a bending wavelength), so
+    computed once they stand for the waves a shift-invert solve drops at every other
+    frequency: a quasi-static correction of point and near-point responses.
+    """
+    w = waves_at(ops, omega0, method="dense")
+    keep = slice(n_waves, None)
+    return Waves(family=w.family, omega=omega0, k=w.k[keep], phi=w.phi[:, keep],
+                 denom=w.denom[keep])
+
+
+def join(*waves: Waves) -> Waves:
+    """One wave set from several of the same family (e.g. retained waves + frozen tail)."""
+    return Waves(family=waves[0].family, omega=waves[0].omega,
+                 k=np.concatenate([w.k for w in waves]),
+                 phi=np.concatenate([w.phi for w in waves], axis=1),
+                 denom=np.concatenate([w.denom for w in waves]))
+
+
 @dataclass(frozen=True, kw_only=True)
 class Dispersion:
     """k(omega) for a set of frequencies. frequency: (nf,) Hz; k: (nf, nw) complex rad/m,
