@@ -139,7 +139,7 @@ def _kernels(k: np.ndarray, x: np.ndarray, L_force: float, L_resp: float):
     return _forward_kernel(k, x, pieces), _forward_kernel(k, -x, pieces)
 
 
-class _FamilyResponse:
+class FamilyResponse:
     """Projections of loads and responses on one family, built once per sweep."""
 
     def __init__(self, guide, family, force_w, resp_w):
@@ -180,7 +180,7 @@ def free_receptance(guide: Waveguide, frequency, force: list[Location], response
             raise ValueError(f"{name} must be a finite length >= 0 m, got {val!r}")
     Fw = np.column_stack([loc.weights for loc in force])
     Rw = np.column_stack([loc.weights for loc in response])
-    fams = [fr for fr in (_FamilyResponse(guide, fam, Fw, Rw) for fam in FAMILIES) if fr.active]
+    fams = [fr for fr in (FamilyResponse(guide, fam, Fw, Rw) for fam in FAMILIES) if fr.active]
     out = np.zeros((len(f), len(response), len(x), len(force)), dtype=complex)
     tails = {fr.ops.family: frozen_tail(fr.ops, 2 * np.pi * f.min(), n_waves)
              for fr in fams if tail and method == "shift-invert"}
@@ -189,21 +189,32 @@ def free_receptance(guide: Waveguide, frequency, force: list[Location], response
             w = waves_at(fr.ops, 2 * np.pi * fi, method=method, n_waves=n_waves)
             if fr.ops.family in tails:
                 w = join(w, tails[fr.ops.family])
-            out[i] += _wave_sum(fr, w, x, load_length, response_length)
+            out[i] += wave_sum(fr, w, x, load_length, response_length)
         if progress:
             progress(i + 1, len(f))
     return out
 
 
-def _wave_sum(fr: _FamilyResponse, w, x, L_force, L_resp) -> np.ndarray:
+def wave_terms(fr: FamilyResponse, w):
+    """Per-wave factors of the residue sum: response shapes (n_out, nw) read directly and
+    through the mirror, and load participations (nw, n_in) for the load and its mirror."""
     phi = w.phi
-    a = ((fr.flip[:, None] * phi).T @ fr.F) / w.denom[:, None]  # (nw, n_in): psi^T F / d
+    a = ((fr.flip[:, None] * phi).T @ fr.F) / w.denom[:, None]  # psi^T F / d
     b = (phi.T @ fr.F) / w.denom[:, None]  # same for the mirrored load T_a F
-    fwd, bwd = _kernels(w.k, x, L_force, L_resp)  # (nw, nx)
-    Rphi = fr.R @ phi  # (n_out, nw)
-    Rphi_m = fr.R @ (fr.flip[:, None] * phi)  # responses read through the mirror
-    u = np.einsum("on,nx,ni->oxi", Rphi, fwd, a) + np.einsum("on,nx,ni->oxi", Rphi_m, bwd, b)
-    return -1j * u
+    return fr.R @ phi, a, fr.R @ (fr.flip[:, None] * phi), b
+
+
+def combine(terms, fwd: np.ndarray, bwd: np.ndarray) -> np.ndarray:
+    """-i sum_n over waves with forward/backward kernels (nw, ...) -> (n_out, ..., n_in)."""
+    Rphi, a, Rphi_m, b = terms
+    return -1j * (np.einsum("on,n...,ni->o...i", Rphi, fwd, a)
+                  + np.einsum("on,n...,ni->o...i", Rphi_m, bwd, b))
+
+
+def wave_sum(fr: FamilyResponse, w, x, L_force: float = 0.0, L_resp: float = 0.0) -> np.ndarray:
+    """Receptance (n_out, nx, n_in) of one family's waves at response positions x."""
+    fwd, bwd = _kernels(w.k, np.asarray(x, dtype=float), L_force, L_resp)
+    return combine(wave_terms(fr, w), fwd, bwd)
 
 
 def _check_frequency(frequency) -> np.ndarray:

@@ -66,6 +66,7 @@ class FamilyOperators:
         sign[: self.na] = -1.0
         self.flip = sign  # T_a in the (a, p) ordering
         self.B = self._lambda_matrix().tocsc()
+        self.extra = None  # optional omega -> sparse stiffness (ordered DOFs), e.g. a foundation
 
     def _lambda_matrix(self):
         na = self.na
@@ -80,7 +81,8 @@ class FamilyOperators:
         na = self.na
         Z = (self.c * self.K0 - omega**2 * self.M).tolil()
         Z[:na, na:] = self.c * self.K1[:na, na:]
-        return Z.tocsc()
+        Z = Z.tocsc()
+        return Z if self.extra is None else (Z + self.extra(omega)).tocsc()
 
     def dA(self, k: np.ndarray, phi: np.ndarray) -> np.ndarray:
         """psi_n^T A'(k_n) phi_n for every column, A' = c (2 k K2 + i K1)."""
