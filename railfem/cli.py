@@ -208,6 +208,43 @@ def _convergence_run(args) -> int:
     return 0
 
 
+def _track_args(p: argparse.ArgumentParser) -> None:
+    from .supports import PRESETS
+    from .trackjob import MODELS
+
+    _add_profile(p)
+    p.add_argument("--preset", choices=sorted(PRESETS), default="site",
+                   help="track parameter set of METHOD.md Table 1 (default site)")
+    p.add_argument("--model", choices=MODELS, default="wfe-discrete",
+                   help="track model (default wfe-discrete)")
+    p.add_argument("--f-low", type=_positive, default=50.0, help="lowest band (Hz)")
+    p.add_argument("--f-high", type=_positive, default=8000.0, help="highest band (Hz)")
+    p.add_argument("--n-supports", type=_count, default=131,
+                   help="discrete supports centred on the sensor span (default 131)")
+    p.add_argument("--pad-length", type=_non_negative, default=0.0, metavar="M",
+                   help="pad length along the rail (m); 0 = point supports (default)")
+    p.add_argument("--n-rows", type=_count, default=1, help="spring rows per pad")
+    p.add_argument("--n-foot-springs", type=_count, default=8,
+                   help="springs across the rail foot (default 8)")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/track"), metavar="DIR",
+                   help="output folder (default railfem-output/track)")
+
+
+def _track_run(args) -> int:
+    from .trackjob import run_track
+
+    s = run_track(args.preset, args.model, args.out, profile=args.profile, h=args.h * 1e-3,
+                  mesh_file=getattr(args, "mesh_file", None), f_low=args.f_low,
+                  f_high=args.f_high, n_supports=args.n_supports, pad_length=args.pad_length,
+                  n_rows=args.n_rows, n_f=args.n_foot_springs)
+    peaks = ", ".join(f"{k} {v:.0f} Hz" for k, v in s["rail_pad_peak_hz"].items())
+    sys.stdout.write(f"{s['preset']} track, {s['model']}: rail-on-pad peak {peaks}; "
+                     f"{s['runtime_s']:.1f} s\n")
+    for v in s["files"].values():
+        sys.stdout.write(f"wrote {v}\n")
+    return 0
+
+
 #: name -> (add_arguments(parser), run(args) -> exit code, help)
 COMMANDS = {
     "mesh": (_mesh_args, _mesh_run, "mesh a rail profile and write a mesh-quality summary"),
@@ -215,6 +252,8 @@ COMMANDS = {
                    "free-rail dispersion curves (CSV, plot) and wave-shape renders"),
     "convergence": (_convergence_args, _convergence_run,
                     "mesh-convergence study of cut-on frequencies and wavenumbers"),
+    "track": (_track_args, _track_run,
+              "supported track of a Table 1 preset: mobilities, EN 15461 decay rates, plots"),
 }
 
 

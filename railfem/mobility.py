@@ -136,7 +136,17 @@ def _kernels(k: np.ndarray, x: np.ndarray, L_force: float, L_resp: float):
         fwd = np.where(x >= 0, np.exp(-1j * k[:, None] * np.abs(x)), 0.0)
         bwd = np.where(x < 0, np.exp(-1j * k[:, None] * np.abs(x)), 0.0)
         return fwd, bwd
-    return _forward_kernel(k, x, pieces), _forward_kernel(k, -x, pieces)
+    # outside the smoothing window the kernel is a plain wave times a constant per wave
+    half = (L_force + L_resp) / 2
+    at_edge = _forward_kernel(k, np.array([half]), pieces)
+    near = np.abs(x) < half
+    plain = at_edge * np.exp(-1j * k[:, None] * np.clip(np.abs(x) - half, 0.0, None))
+    fwd = np.where(x >= half, plain, 0.0)
+    bwd = np.where(x <= -half, plain, 0.0)
+    if near.any():
+        fwd[:, near] = _forward_kernel(k, x[near], pieces)
+        bwd[:, near] = _forward_kernel(k, -x[near], pieces)
+    return fwd, bwd
 
 
 class FamilyResponse:
@@ -213,8 +223,19 @@ def combine(terms, fwd: np.ndarray, bwd: np.ndarray) -> np.ndarray:
 
 def wave_sum(fr: FamilyResponse, w, x, L_force: float = 0.0, L_resp: float = 0.0) -> np.ndarray:
     """Receptance (n_out, nx, n_in) of one family's waves at response positions x."""
-    fwd, bwd = _kernels(w.k, np.asarray(x, dtype=float), L_force, L_resp)
-    return combine(wave_terms(fr, w), fwd, bwd)
+    x = np.asarray(x, dtype=float)
+    terms = wave_terms(fr, w)
+    # near-field waves are negligible (< e^-35) beyond their reach: skip those positions
+    reach = 35.0 / np.maximum(-w.k.imag, 1e-300) + (L_force + L_resp) / 2
+    short = reach < np.abs(x).max(initial=0.0)
+    if not short.any():
+        return combine(terms, *_kernels(w.k, x, L_force, L_resp))
+    sel = lambda m: (terms[0][:, m], terms[1][m], terms[2][:, m], terms[3][m])  # noqa: E731
+    out = combine(sel(~short), *_kernels(w.k[~short], x, L_force, L_resp))
+    near = np.abs(x) <= reach[short].max()
+    if near.any():
+        out[:, near] += combine(sel(short), *_kernels(w.k[short], x[near], L_force, L_resp))
+    return out
 
 
 def _check_frequency(frequency) -> np.ndarray:
