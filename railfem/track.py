@@ -163,8 +163,12 @@ def _spring_length(layout: SupportLayout) -> float:
 def discrete_receptance(guide: Waveguide, layout: SupportLayout, frequency, *, load: Location,
                         outputs: list[Location], force_x, response_x,
                         n_f: int = DEFAULT_N_FOOT_SPRINGS, load_length: float = 0.02,
-                        n_waves: int = 40, tail: bool = True, progress=None) -> TrackResponse:
-    """WFE rail on the discrete supports of ``layout`` (each support may differ)."""
+                        response_length: float = 0.0, n_waves: int = 40, tail: bool = True,
+                        progress=None) -> TrackResponse:
+    """WFE rail on the discrete supports of ``layout`` (each support may differ).
+
+    The load is spread over load_length along the rail, outputs are averaged over
+    response_length (equal lengths make the result reciprocal in load and output)."""
     f, fx, rx = _axes(frequency, force_x, response_x)
     springs = foot_springs(guide, n_f)
     st = _setup(guide, load, outputs, springs)
@@ -181,8 +185,9 @@ def discrete_receptance(guide: Waveguide, layout: SupportLayout, frequency, *, l
         B = B[..., 0].transpose(1, 0, 2).reshape(n_s * n_p, len(fx))
         K = (K_rows[i][:, None] * st.spring_weight[None, :]).ravel()
         F = np.linalg.solve(np.eye(n_s * n_p) + K[:, None] * A, K[:, None] * B)
-        direct = _unique_sum(st.rP, w, rx[:, None] - fx[None, :], load_length, 0.0)[..., 0]
-        G = _unique_sum(st.rs, w, rx[:, None] - xs[None, :], Ls, 0.0)  # (o, r, s, p)
+        direct = _unique_sum(st.rP, w, rx[:, None] - fx[None, :], load_length,
+                             response_length)[..., 0]
+        G = _unique_sum(st.rs, w, rx[:, None] - xs[None, :], Ls, response_length)  # o,r,s,p
         out[i] = direct - np.einsum("orsp,spP->orP", G, F.reshape(n_s, n_p, len(fx)))
         if progress:
             progress(i + 1, len(f))
@@ -310,6 +315,16 @@ def foot_bed(guide: Waveguide) -> sp.csr_matrix:
     return sp.diags(diag / diag.sum()).tocsr()
 
 
+def supported_operators(guide: Waveguide, params, spacing: float) -> FamilyOperators:
+    """Symmetric-family operators of the rail on the continuous foundation: its waves are
+    the free waves of the continuously supported track."""
+    ops = FamilyOperators(guide, FAMILY)
+    T = guide.families[FAMILY].T
+    bed = (T.T @ foot_bed(guide) @ T).tocsr()[ops.order][:, ops.order]
+    ops.extra = lambda omega: (dynamic_stiffness(params, omega).item() / spacing) * bed
+    return ops
+
+
 def continuous_receptance(guide: Waveguide, params, spacing: float, frequency, *,
                           load: Location, outputs: list[Location], x,
                           load_length: float = 0.02, n_waves: int = 40, tail: bool = True,
@@ -320,10 +335,7 @@ def continuous_receptance(guide: Waveguide, params, spacing: float, frequency, *
     if not np.isfinite(spacing) or spacing <= 0:
         raise ValueError(f"spacing = {spacing!r} m: use the sleeper spacing > 0 m")
     _check_symmetric(guide, [load])
-    ops = FamilyOperators(guide, FAMILY)
-    T = guide.families[FAMILY].T
-    bed = (T.T @ foot_bed(guide) @ T).tocsr()[ops.order][:, ops.order]
-    ops.extra = lambda omega: (dynamic_stiffness(params, omega).item() / spacing) * bed
+    ops = supported_operators(guide, params, spacing)
     R = np.column_stack([o.weights for o in outputs])
     fr = FamilyResponse(guide, FAMILY, load.weights[:, None], R)
     out = np.empty((len(f), len(outputs), len(rx), 1), dtype=complex)

@@ -45,6 +45,8 @@ def track_receptance(model: str, tp: TrackPreset, mesh, frequency, force_x, resp
     layout = uniform_layout(tp.support, tp.spacing, n_supports, pad_length=pad_length,
                             n_rows=n_rows)
     omega = 2 * np.pi * f
+    if model.endswith("discrete"):
+        return _centred_on_pairs(model, tp, mesh, material, layout, f, fx, rx, n_f, progress)
     if model.startswith("timoshenko"):
         bs = beam_section(mesh, material)
         if model == "timoshenko-discrete":
@@ -59,10 +61,7 @@ def track_receptance(model: str, tp: TrackPreset, mesh, frequency, force_x, resp
     outputs = [mobility.point(guide, "head_top", label="head"),
                mobility.point(guide, "foot_sensor", label="foot")]
     common = dict(load=load, outputs=outputs, progress=progress)
-    if model == "wfe-discrete":
-        r = track.discrete_receptance(guide, layout, f, force_x=fx, response_x=rx, n_f=n_f,
-                                      **common)
-    elif model == "wfe-periodic":
+    if model == "wfe-periodic":
         r = track.periodic_receptance(guide, tp.support, tp.spacing, f, force_x=fx,
                                       response_x=rx, pad_length=pad_length, n_rows=n_rows,
                                       n_f=n_f, **common)
@@ -72,6 +71,29 @@ def track_receptance(model: str, tp: TrackPreset, mesh, frequency, force_x, resp
                                         **common)
         return r.receptance[..., 0].reshape(len(f), 2, *sep.shape)
     return r.receptance
+
+
+def _centred_on_pairs(model, tp, mesh, material, layout, f, fx, rx, n_f, progress):
+    """Truncated discrete tracks centred on each load-response pair: the infinite track is
+    periodic, so a pair (x_P, x_r) is computed as (x_P - c, x_r - c) with c the support
+    nearest to their midpoint, which keeps both as far as possible from the ends of the
+    supported stretch. One solve serves every pair."""
+    c = np.round((rx[:, None] + fx[None, :]) / (2 * tp.spacing)) * tp.spacing
+    uf, jf = np.unique(np.round(fx[None, :] - c, 10), return_inverse=True)
+    ur, jr = np.unique(np.round(rx[:, None] - c, 10), return_inverse=True)
+    jf, jr = jf.reshape(c.shape), jr.reshape(c.shape)
+    if model == "timoshenko-discrete":
+        a = beams.discrete_track_receptance(beam_section(mesh, material), layout,
+                                            2 * np.pi * f, uf, ur)
+        a = np.repeat(np.asarray(a)[:, None], 2, axis=1)
+    else:
+        guide = waveguide.assemble(mesh, material)
+        a = track.discrete_receptance(
+            guide, layout, f, load=mobility.head_patch(guide, 0.02),
+            outputs=[mobility.point(guide, "head_top", label="head"),
+                     mobility.point(guide, "foot_sensor", label="foot")],
+            force_x=uf, response_x=ur, n_f=n_f, progress=progress).receptance
+    return a[:, :, jr, jf]
 
 
 def rail_pad_peak(frequency, point_mobility, tp: TrackPreset, rail_mass: float) -> float:

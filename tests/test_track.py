@@ -1,0 +1,166 @@
+"""Supported WFE track (railfem.track) against independent answers: the Timoshenko beam
+tracks of railfem.beams (a different model), the continuous support, truncation against
+the infinite periodic solution, and the attenuation of the least-attenuated wave."""
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from railfem import meshing, mobility, supports, track, waveguide
+from railfem.materials import Material
+from railfem.standards import en15461
+from railfem.trackjob import beam_section, track_receptance
+from railfem.labels import label_waves
+from railfem.waves import waves_at
+
+F_LOW = np.array([50.0, 80.0, 125.0, 200.0, 315.0, 500.0])
+
+
+def db(a):
+    return 20 * np.log10(np.abs(a))
+
+
+@pytest.fixture(scope="module")
+def mesh():
+    return meshing.get_mesh("60E1", 0.01)
+
+
+@pytest.fixture(scope="module")
+def rail(mesh):
+    g = waveguide.assemble(mesh, Material.steel(0.02))
+    return g, mobility.head_patch(g, 0.02), [mobility.point(g, "head_top", label="head"),
+                                              mobility.point(g, "foot_sensor", label="foot")]
+
+
+def test_wfe_discrete_matches_timoshenko_discrete_below_500hz(mesh):
+    """Soft pads: the section's own flexibility (foot bending, web) is small against the
+    pad, so the beam and the WFE rail must agree within 1 dB at and off the support."""
+    tp = supports.preset("very_soft")
+    fx, rx = np.array([0.0, 0.3]), np.array([0.0, 0.3, 1.2])
+    wfe = track_receptance("wfe-discrete", tp, mesh, F_LOW, fx, rx)[:, 0]
+    beam = track_receptance("timoshenko-discrete", tp, mesh, F_LOW, fx, rx)[:, 0]
+    assert np.abs(db(wfe / beam)).max() < 1.0
+
+
+def test_discrete_tends_to_continuous_at_low_frequency(mesh):
+    tp = supports.preset("site")
+    f = np.array([50.0, 63.0, 80.0])
+    rx = np.array([0.3])
+    disc = track_receptance("wfe-discrete", tp, mesh, f, [0.3], rx)[:, 0, 0, 0]
+    cont = track_receptance("wfe-continuous", tp, mesh, f, [0.3], rx)[:, 0, 0, 0]
+    assert np.abs(db(disc / cont)).max() < 0.5
+
+
+def test_truncation_and_periodic_solution_agree(mesh):
+    """131 supports against 261 and against infinitely many (Floquet): < 0.1 dB on the
+    transfers within 30 dB of the point, < 1 % on the decay-rate sum of EN 15461 eq. (1)."""
+    tp = supports.preset("medium")
+    f = np.array([100.0, 400.0, 1000.0, 2500.0])
+    pos = en15461.hammer_positions(tp.spacing)
+    fx, rx = 0.3 + np.where(pos == 0, 0.02, pos), np.array([0.3])
+    a131 = track_receptance("wfe-discrete", tp, mesh, f, fx, rx)[:, 0, 0]
+    a261 = track_receptance("wfe-discrete", tp, mesh, f, fx, rx, n_supports=261)[:, 0, 0]
+    per = track_receptance("wfe-periodic", tp, mesh, f, fx, rx)[:, 0, 0]
+    used = db(a261) > db(a261[:, :1]) - 30
+    dx = en15461.weighted_intervals(pos)
+
+    def decay(a):
+        return 4.343 / ((np.abs(a / a[:, :1]) ** 2) @ dx)
+
+    for model in (a131, per):
+        assert np.abs(db(model / a261))[used].max() < 0.1
+        assert np.abs(decay(model) / decay(a261) - 1).max() < 0.01
+
+
+def test_periodic_converges_in_floquet_angles(rail):
+    g, load, outs = rail
+    p = supports.preset("soft").support
+    f = np.array([300.0, 1500.0])
+    kw = dict(load=load, outputs=outs, force_x=[0.0, 0.3], response_x=[0.0, 3.0])
+    coarse = track.periodic_receptance(g, p, 0.6, f, n_theta=128, **kw).receptance
+    fine = track.periodic_receptance(g, p, 0.6, f, n_theta=1024, **kw).receptance
+    mid = track.periodic_receptance(g, p, 0.6, f, n_theta=512, **kw).receptance
+    assert np.abs(db(mid / fine)).max() < 0.01
+    assert np.abs(db(mid / fine)).max() <= np.abs(db(coarse / fine)).max()
+
+
+def test_far_field_decay_equals_least_attenuated_wave(rail):
+    """Far from the load on a continuous support one wave remains: the transfer level falls
+    by 20 log10(e) |Im k| = 8.686 |Im k| dB/m, with k from the supported section's own
+    eigenproblem (not from the response)."""
+    g, load, outs = rail
+    p = supports.preset("soft").support
+    f = 800.0
+    x = np.linspace(4.0, 8.0, 9)
+    r = track.continuous_receptance(g, p, 0.6, [f], load=load, outputs=outs[:1], x=x)
+    slope = np.polyfit(x, db(r.receptance[0, 0, :, 0]), 1)[0]
+    ops = track.supported_operators(g, p, 0.6)
+    w = waves_at(ops, 2 * np.pi * f, method="shift-invert", n_waves=10)
+    labels = np.array(label_waves(g, ops, w))
+    k = w.k[labels == "vertical bending"]
+    # the longitudinal wave is even less attenuated but barely moves the head vertically
+    assert -slope == pytest.approx(8.686 * np.abs(k.imag).min(), rel=0.02)
+
+
+def test_head_and_foot_sensors_differ_only_at_high_frequency(mesh):
+    tp = supports.preset("site")
+    f = np.array([100.0, 250.0, 500.0, 2000.0, 3150.0, 5000.0])
+    a = track_receptance("wfe-discrete", tp, mesh, f, [0.32, 1.2], [0.3])[:, :, 0]
+    diff = np.abs(db(a[:, 0] / a[:, 1]))
+    assert diff[f <= 500].max() < 1.0
+    assert diff[f >= 2000].max() > 2.0
+
+
+def test_inhomogeneous_track_void_support(rail):
+    """One support with almost no ballast (a hanging sleeper) needs no new code and makes
+    the track softer over it at low frequency, not far away."""
+    g, load, outs = rail
+    p = supports.preset("medium").support
+    lay = supports.uniform_layout(p, 0.6, 41)
+    void = supports.with_support(lay, 20, replace(p, kb=1e3))
+    f = np.array([60.0])
+    kw = dict(load=load, outputs=outs[:1], force_x=[0.0], response_x=[0.0, 9.0])
+    a = track.discrete_receptance(g, lay, f, **kw).receptance[0, 0, :, 0]
+    b = track.discrete_receptance(g, void, f, **kw).receptance[0, 0, :, 0]
+    assert db(b[0] / a[0]) > 3.0
+
+
+def test_reciprocity_of_the_supported_track(rail):
+    g, load, outs = rail
+    lay = supports.uniform_layout(supports.preset("site").support, 0.6, 41)
+    f = np.array([400.0, 1200.0])
+    r = track.discrete_receptance(g, lay, f, load=load, outputs=[load], force_x=[0.1, 0.9],
+                                  response_x=[0.1, 0.9], response_length=0.02).receptance[:, 0]
+    assert np.allclose(r[:, 0, 1], r[:, 1, 0], rtol=1e-8, atol=0)
+
+
+def test_point_mobility_is_passive(mesh):
+    tp = supports.preset("stiff")
+    f = np.geomspace(50, 5000, 12)
+    a = track_receptance("wfe-discrete", tp, mesh, f, [0.3], [0.3])[:, 0, 0, 0]
+    assert np.all((1j * 2 * np.pi * f * a).real > 0)
+
+
+def test_beam_section_uses_mesh_constants(mesh):
+    bs = beam_section(mesh, Material.steel())
+    assert bs.area == pytest.approx(76.70e-4, rel=5e-3)
+    assert bs.I == pytest.approx(3038.3e-8, rel=5e-3)
+
+
+def test_bad_inputs(rail):
+    g, load, outs = rail
+    p = supports.preset("site").support
+    lay = supports.uniform_layout(p, 0.6, 5)
+    no_foot = replace(g, node_sets={**g.node_sets, "foot_underside": np.array([], int)})
+    with pytest.raises(ValueError, match="rail-foot"):
+        track.discrete_receptance(no_foot, lay, [100.0], load=load, outputs=outs,
+                                  force_x=[0.0], response_x=[0.0])
+    lateral = mobility.head_patch(g, 0.02, direction="y")
+    with pytest.raises(ValueError, match="symmetric"):
+        track.discrete_receptance(g, lay, [100.0], load=lateral, outputs=outs,
+                                  force_x=[0.0], response_x=[0.0])
+    with pytest.raises(ValueError, match="force_x"):
+        track.discrete_receptance(g, lay, [100.0], load=load, outputs=outs,
+                                  force_x=[np.nan], response_x=[0.0])
+    with pytest.raises(ValueError, match="track model"):
+        track_receptance("winkler", supports.preset("site"), g.mesh, [100.0], [0], [0])
