@@ -12,6 +12,9 @@
 #   * the gmsh wheel fails at import without the X/GL libraries below;
 #   * headless VTK (pyvista off-screen) needs libegl1 together with
 #     VTK_DEFAULT_OPENGL_WINDOW=vtkEGLRenderWindow (railfem.rendering sets it).
+#   * Debian's own python3 is "externally managed" (PEP 668): pip refuses to install into
+#     it unless given --break-system-packages, which is added for that interpreter only
+#     (never inside a virtual environment); python3-pip is apt-installed when it lacks pip.
 set -euo pipefail
 
 PYTHON="${PYTHON:-python3}"
@@ -48,6 +51,12 @@ install_debian_packages() {
     DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}"
 }
 
+# Debian's system interpreter without pip: let apt provide it.
+if command -v "$PYTHON" >/dev/null 2>&1 && ! "$PYTHON" -m pip --version >/dev/null 2>&1 \
+        && [[ "$(readlink -f "$(command -v "$PYTHON")")" == /usr/bin/python3* ]]; then
+    DEB_PACKAGES+=(python3-pip)
+fi
+
 if [ "${SKIP_APT:-0}" = "1" ]; then
     log "SKIP_APT=1: not checking debian packages"
 elif command -v dpkg >/dev/null 2>&1; then
@@ -62,8 +71,15 @@ if ! command -v "$PYTHON" >/dev/null 2>&1; then
 fi
 log "python: $("$PYTHON" -c 'import sys; print(sys.executable, sys.version.split()[0])')"
 
+PIP_FLAGS=(--disable-pip-version-check -q)
+if "$PYTHON" -c 'import os, sys, sysconfig
+managed = os.path.exists(os.path.join(sysconfig.get_path("stdlib"), "EXTERNALLY-MANAGED"))
+sys.exit(0 if managed and sys.prefix == sys.base_prefix else 1)'; then
+    log "$PYTHON is externally managed (PEP 668): installing with --break-system-packages"
+    PIP_FLAGS+=(--break-system-packages)
+fi
 log "pip install -e .[test]"
-"$PYTHON" -m pip install --disable-pip-version-check -q -e ".[test]"
+"$PYTHON" -m pip install "${PIP_FLAGS[@]}" -e ".[test]"
 
 log "verifying imports (gmsh, pyvista, skfem)"
 if [ -z "${DISPLAY:-}" ]; then

@@ -1,0 +1,57 @@
+"""``import railfem`` and its modules stay light: no gmsh, PyVista/VTK or Matplotlib at import.
+
+Those libraries are imported inside the functions that need them (meshing: gmsh; plotting:
+Matplotlib; rendering: PyVista), so the core and the command line start fast and work on a
+machine where a heavy optional library is broken. The check runs in a fresh interpreter
+(this test session may have imported them already) and names the module that pulled a
+library in. Every ``railfem/**/*.py`` is checked, so new modules are covered automatically.
+"""
+import importlib.util
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+HEAVY = ("gmsh", "pyvista", "vtk", "vtkmodules", "matplotlib")
+CORE = ("railfem", "railfem.profiles", "railfem.meshing", "railfem.forms", "railfem.waveguide",
+        "railfem.waves", "railfem.section", "railfem.mobility", "railfem.supports",
+        "railfem.beams", "railfem.frf", "railfem.standards", "railfem.standards.en15461",
+        "railfem.standards.iec61260")
+EDGE = ("railfem.plotting", "railfem.rendering", "railfem.jobs", "railfem.cli")
+
+CHILD = """
+import importlib, json, sys
+heavy = set(sys.argv[1].split(","))
+loaded = lambda: {n.split(".")[0] for n in sys.modules} & heavy
+before = loaded()
+offenders = {}
+for name in sys.argv[2:]:
+    seen = loaded()
+    importlib.import_module(name)
+    if loaded() - seen:
+        offenders[name] = sorted(loaded() - seen)
+print(json.dumps({"before": sorted(before), "offenders": offenders}))
+"""
+
+
+def package_modules() -> list[str]:
+    root = Path(importlib.util.find_spec("railfem").origin).parent
+    names = []
+    for path in sorted(root.rglob("*.py")):
+        parts = path.relative_to(root.parent).with_suffix("").parts
+        names.append(".".join(parts[:-1] if parts[-1] == "__init__" else parts))
+    return names
+
+
+def test_no_module_imports_gmsh_pyvista_or_matplotlib():
+    discovered = package_modules()
+    assert set(CORE) | set(EDGE) <= set(discovered), "a listed module is missing"
+    order = list(CORE) + [m for m in discovered if m not in CORE]  # core first: clearer blame
+    proc = subprocess.run([sys.executable, "-c", CHILD, ",".join(HEAVY), *order],
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 0, f"import failed:\n{proc.stderr[-3000:]}"
+    result = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert result["before"] == [], f"interpreter pre-loads {result['before']}"
+    assert result["offenders"] == {}, (
+        "modules importing heavy libraries at import time (move the import into the "
+        f"function that needs it): {result['offenders']}")
