@@ -13,9 +13,6 @@ from railfem.trackjob import beam_section, track_receptance
 from railfem.labels import label_waves
 from railfem.waves import waves_at
 
-F_LOW = np.array([50.0, 80.0, 125.0, 200.0, 315.0, 500.0])
-
-
 def db(a):
     return 20 * np.log10(np.abs(a))
 
@@ -33,12 +30,16 @@ def rail(mesh):
 
 
 def test_wfe_discrete_matches_timoshenko_discrete_below_500hz(mesh):
-    """Soft pads: the section's own flexibility (foot bending, web) is small against the
-    pad, so the beam and the WFE rail must agree within 1 dB at and off the support."""
+    """Soft pads: the section's own flexibility (foot bending, web, local compliance under
+    the springs) is small against the pad, so the beam and the WFE rail agree within 1 dB
+    at every 1/9-octave point 50-500 Hz, over a support and at mid-span. (On stiff pads
+    they do not near the rail-on-pad resonance: the WFE foot flexes; see the closing note
+    of issue 4.)"""
     tp = supports.preset("very_soft")
-    fx, rx = np.array([0.0, 0.3]), np.array([0.0, 0.3, 1.2])
-    wfe = track_receptance("wfe-discrete", tp, mesh, F_LOW, fx, rx)[:, 0]
-    beam = track_receptance("timoshenko-discrete", tp, mesh, F_LOW, fx, rx)[:, 0]
+    f = 1000 * 10 ** (np.arange(-40, -9) / 30)
+    fx, rx = np.array([0.0, 0.3]), np.array([0.0, 0.3])
+    wfe = track_receptance("wfe-discrete", tp, mesh, f, fx, rx)[:, 0]
+    beam = track_receptance("timoshenko-discrete", tp, mesh, f, fx, rx)[:, 0]
     assert np.abs(db(wfe / beam)).max() < 1.0
 
 
