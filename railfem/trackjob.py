@@ -31,6 +31,14 @@ def beam_section(mesh, material: Material) -> beams.BeamSection:
                              eta=material.loss_factor)
 
 
+def _wfe_rail(mesh, material):
+    """The WFE rail, the hammer/wheel load (20 mm head patch) and the two outputs."""
+    guide = waveguide.assemble(mesh, material)
+    outputs = [mobility.point(guide, "head_top", label="head"),
+               mobility.point(guide, "foot_sensor", label="foot")]
+    return guide, mobility.head_patch(guide, 0.02), outputs
+
+
 def track_receptance(model: str, tp: TrackPreset, mesh, frequency, force_x, response_x, *,
                      n_supports: int = 131, pad_length: float = 0.0, n_rows: int = 1,
                      n_f: int = track.DEFAULT_N_FOOT_SPRINGS, progress=None) -> np.ndarray:
@@ -56,10 +64,7 @@ def track_receptance(model: str, tp: TrackPreset, mesh, frequency, force_x, resp
             a = beams.continuous_track_receptance(bs, tp.support, tp.spacing, omega,
                                                   sep.ravel()).reshape(len(f), *sep.shape)
         return np.repeat(np.asarray(a)[:, None], 2, axis=1)
-    guide = waveguide.assemble(mesh, material)
-    load = mobility.head_patch(guide, 0.02)
-    outputs = [mobility.point(guide, "head_top", label="head"),
-               mobility.point(guide, "foot_sensor", label="foot")]
+    guide, load, outputs = _wfe_rail(mesh, material)
     common = dict(load=load, outputs=outputs, progress=progress)
     if model == "wfe-periodic":
         r = track.periodic_receptance(guide, tp.support, tp.spacing, f, force_x=fx,
@@ -87,12 +92,10 @@ def _centred_on_pairs(model, tp, mesh, material, layout, f, fx, rx, n_f, progres
                                             2 * np.pi * f, uf, ur)
         a = np.repeat(np.asarray(a)[:, None], 2, axis=1)
     else:
-        guide = waveguide.assemble(mesh, material)
-        a = track.discrete_receptance(
-            guide, layout, f, load=mobility.head_patch(guide, 0.02),
-            outputs=[mobility.point(guide, "head_top", label="head"),
-                     mobility.point(guide, "foot_sensor", label="foot")],
-            force_x=uf, response_x=ur, n_f=n_f, progress=progress).receptance
+        guide, load, outputs = _wfe_rail(mesh, material)
+        a = track.discrete_receptance(guide, layout, f, load=load, outputs=outputs,
+                                      force_x=uf, response_x=ur, n_f=n_f,
+                                      progress=progress).receptance
     return a[:, :, jr, jf]
 
 
@@ -138,8 +141,8 @@ def run_track(preset_name: str, model: str, out_dir, *, profile="60E1", h: float
     transfer = Y[:, :, 0, : len(pos)]  # (nf, 2, n_pos): sensor response, hammer moves
     paths = _write_outputs(out, tp, model, f, pos, hammer_x, xs, transfer,
                            Y[:, :, 1:, len(pos):], span_fx, along_x, along_frequencies)
-    rail_mass = Material.steel().rho * section.section_constants(mesh).area
-    f_pp = beams.pinned_pinned_frequency(beam_section(mesh, Material.steel()), d)
+    bs = beam_section(mesh, Material.steel())
+    rail_mass, f_pp = bs.mass_per_length, beams.pinned_pinned_frequency(bs, d)
     summary = {
         "preset": tp.name, "model": model, "mesh": mesh.name, "n_supports": n_supports,
         "pad_length_m": pad_length, "n_rows": n_rows, "n_foot_springs": n_f,
