@@ -165,3 +165,28 @@ def test_bad_inputs(rail):
                                   force_x=[np.nan], response_x=[0.0])
     with pytest.raises(ValueError, match="track model"):
         track_receptance("winkler", supports.preset("site"), g.mesh, [100.0], [0], [0])
+
+
+def test_track_command_writes_readable_outputs(tmp_path):
+    """`railfem track` end to end on a short band range: the transfer CSV reads back as
+    mobility with the 29 EN positions, and its point value equals the model's own."""
+    import json
+
+    from railfem import cli
+    from railfem.frfio import read_frf_csv
+
+    out = tmp_path / "site"
+    assert cli.main(["-q", "track", "--preset", "site", "--model", "timoshenko-discrete",
+                     "--f-low", "100", "--f-high", "200", "--out", str(out)]) == 0
+    frf = read_frf_csv(out / "transfer_mobility.csv")
+    assert frf.quantity == "mobility" and frf.values.shape[1:] == (2, 29)
+    tp = supports.preset("site")
+    a = track_receptance("timoshenko-discrete", tp, meshing.get_mesh("60E1", 0.01),
+                         frf.frequency, [0.32], [0.3])[:, 0, 0, 0]
+    assert np.allclose(frf.values[:, 0, 0], 2j * np.pi * frf.frequency * a, rtol=1e-6)
+    decay = np.loadtxt(out / "decay_rate.csv", delimiter=",", skiprows=2)
+    assert decay.shape == (4, 5) and np.all(decay[:, 1] > 0)
+    run = json.loads((out / "run.json").read_text())
+    assert run["preset"] == "site" and set(run["files"]) >= {"transfer_csv", "decay_png"}
+    assert cli.main(["-q", "track", "--preset", "site", "--n-rows", "3", "--out",
+                     str(tmp_path / "bad")]) == 2  # rows need a pad length
