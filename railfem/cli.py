@@ -5,6 +5,7 @@
     railfem dispersion --profile 60E1 --h 10 --fmin 50 --fmax 5000 --n 100 --out DIR
     railfem dispersion --k-range 0.1 30 60 --out DIR        omega(k) instead of k(omega)
     railfem convergence --profile 60E1 --sizes 20 15 10 7.5 5 --frequencies 1000 --out DIR
+    railfem mobility --free --freq 50:8000:60 --response head foot_sensor --x 0 0.3 --out DIR
 
 Lengths on the command line are in mm (element sizes), frequencies in Hz, wavenumbers in
 rad/m. Each subcommand parses its arguments and calls one function of
@@ -252,6 +253,94 @@ def _track_run(args) -> int:
     return 0
 
 
+# --------------------------------------------------------------- free mobility
+def _frequency_spec(tokens) -> np.ndarray:
+    """'F1 F2 ...' (Hz) or one 'FMIN:FMAX:N' (N log-spaced frequencies)."""
+    if len(tokens) == 1 and ":" in tokens[0]:
+        parts = tokens[0].split(":")
+        try:
+            fmin, fmax, n = float(parts[0]), float(parts[1]), int(parts[2])
+        except (ValueError, IndexError):
+            raise BadInput(f"--freq {tokens[0]!r}: expected FMIN:FMAX:N, e.g. 50:8000:60"
+                           ) from None
+        if len(parts) != 3 or not (0 < fmin <= fmax < np.inf) or n < 1:
+            raise BadInput(f"--freq {tokens[0]!r}: need 0 < FMIN <= FMAX (Hz) and N >= 1")
+        return np.geomspace(fmin, fmax, n)
+    try:
+        f = np.array([float(t) for t in tokens])
+    except ValueError:
+        raise BadInput(f"--freq expects frequencies in Hz or FMIN:FMAX:N, got {tokens}"
+                       ) from None
+    if not np.all(np.isfinite(f)) or np.any(f <= 0):
+        raise BadInput(f"--freq: frequencies must be positive and finite (Hz), got {tokens}")
+    return f
+
+
+def _finite(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not np.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+def _mobility_args(p: argparse.ArgumentParser) -> None:
+    _add_profile(p)
+    p.add_argument("--mesh", type=Path, default=None, metavar="FILE.npz",
+                   help="use this saved mesh (railfem mesh) instead of --profile/--h")
+    p.add_argument("--free", action="store_true",
+                   help="free (unsupported) rail; the only model of this command, so it is "
+                        "also the default")
+    p.add_argument("--freq", nargs="+", default=None, metavar="HZ",
+                   help="frequencies in Hz, or FMIN:FMAX:N for N log-spaced ones (default: "
+                        "one-third-octave centres 50 Hz - 8 kHz)")
+    p.add_argument("--force", default="head", metavar="LOC",
+                   help="load location NAME[:DIR]: 'head' (patch across the head top, "
+                        "default), a single-node set (head_top, foot_sensor) or a node "
+                        "index; DIR x, y or z (default z)")
+    p.add_argument("--response", nargs="+", default=["head", "foot_sensor"], metavar="LOC",
+                   help="response locations, same spelling as --force (default: head "
+                        "foot_sensor); 'head' reads the average over the load patch")
+    p.add_argument("--x", type=_finite, nargs="+", default=None, metavar="M",
+                   help="response distances from the load along the rail in m (default "
+                        "0 0.3 0.6 1.2)")
+    p.add_argument("--patch-width", type=_positive, default=0.02, metavar="M",
+                   help="width of the head load patch in m (default 0.02)")
+    p.add_argument("--load-length", type=_non_negative, default=0.02, metavar="M",
+                   help="length along the rail over which the force is spread, m (default "
+                        "0.02; 0 gives a load concentrated at x = 0)")
+    p.add_argument("--eta", type=_non_negative, default=0.01,
+                   help="rail loss factor (default 0.01)")
+    p.add_argument("--method", choices=("shift-invert", "dense"), default="shift-invert",
+                   help="waves kept: shift-invert (the --n-waves smallest |k| per family plus "
+                        "the frozen near-field tail, default) or dense (all waves, slow)")
+    p.add_argument("--n-waves", type=_count, default=40,
+                   help="waves per family for shift-invert (default 40)")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/mobility"),
+                   metavar="DIR", help="output folder (default railfem-output/mobility)")
+
+
+def _mobility_run(args) -> int:
+    from . import jobs
+
+    if args.mesh is None and args.h < 1.0:
+        raise BadInput(f"--h is the element size in mm like for the other commands; "
+                       f"{args.h:g} mm is too fine (did you mean {args.h * 1e3:g}?)")
+    frequencies = None if args.freq is None else _frequency_spec(args.freq)
+    x = jobs.DEFAULT_MOBILITY_X if args.x is None else args.x
+    paths = jobs.run_free_mobility(args.profile, args.h * 1e-3, args.out,
+                                   frequencies=frequencies, force=args.force,
+                                   responses=args.response, x=x,
+                                   patch_width=args.patch_width,
+                                   load_length=args.load_length, eta=args.eta,
+                                   mesh_file=args.mesh, method=args.method,
+                                   n_waves=args.n_waves)
+    sys.stdout.write(f"wrote {paths['csv']}\nwrote {paths['png']}\nwrote {paths['json']}\n")
+    return 0
+
+
 #: name -> (add_arguments(parser), run(args) -> exit code, help)
 COMMANDS = {
     "mesh": (_mesh_args, _mesh_run, "mesh a rail profile and write a mesh-quality summary"),
@@ -259,6 +348,8 @@ COMMANDS = {
                    "free-rail dispersion curves (CSV, plot) and wave-shape renders"),
     "convergence": (_convergence_args, _convergence_run,
                     "mesh-convergence study of cut-on frequencies and wavenumbers"),
+    "mobility": (_mobility_args, _mobility_run,
+                 "free-rail point and transfer mobilities (CSV, plot)"),
     "track": (_track_args, _track_run,
               "supported track of a Table 1 preset: mobilities, EN 15461 decay rates, plots"),
 }

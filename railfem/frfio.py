@@ -9,7 +9,8 @@ File layout (UTF-8, comma separated, one frequency per data row)::
     1.0000000000000000e+01,...
 
 * Lines starting with ``#`` before the header are comments; the first one names the
-  quantity and its units (both are checked on reading).
+  quantity and its units (both are checked on reading). Free-text comment lines (e.g. a
+  description of the columns, ``write_frf_csv(..., comments=...)``) follow it.
 * The header has ``frequency_hz`` followed by one ``_re`` and one ``_im`` column per
   (response, force) pair, responses outer, forces inner. Labels must not contain
   ``, | # ;`` or line breaks.
@@ -46,14 +47,24 @@ def _check_label(kind: str, label: str) -> None:
         )
 
 
-def write_frf_csv(path: str | os.PathLike, frf: FRF) -> Path:
-    """Write ``frf`` to ``path`` atomically; returns the path."""
+def write_frf_csv(path: str | os.PathLike, frf: FRF, *, comments=()) -> Path:
+    """Write ``frf`` to ``path`` atomically; returns the path.
+
+    ``comments``: lines of free text written as ``# ...`` after the format line (one
+    line each, no line breaks), e.g. what the columns and labels mean.
+    """
     path = Path(path)
     for lab in frf.response:
         _check_label("response", lab)
     for lab in frf.force:
         _check_label("force", lab)
     lines = [f"# {FORMAT_TAG}; quantity={frf.quantity}; units={frf.units}"]
+    for text in comments:
+        if "\n" in text or "\r" in text:
+            raise ValueError(f"FRF CSV comment {text!r} spans several lines; give one per line")
+        if text.lstrip().startswith(("response_x=", "force_x=", FORMAT_TAG)):
+            raise ValueError(f"FRF CSV comment {text!r} would be read as metadata")
+        lines.append(f"# {text}" if text else "#")
     if frf.response_x is not None:
         lines.append("# response_x=" + ",".join(repr(float(v)) for v in frf.response_x))
     if frf.force_x is not None:

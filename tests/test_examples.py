@@ -73,7 +73,17 @@ def check_site_decay_100hz(d):
     assert 3.0 < d < 9.0
 
 
+def check_free_point_100hz(y):
+    """Infinite Euler-Bernoulli beam (METHOD.md section 1): |Y| = w sqrt(2) / (4 EI k_b^3),
+    nominal 60E1 constants; shear and the local head compliance stay within 2 % at 100 Hz."""
+    w = 2 * math.pi * 100.0
+    kb = (w**2 * RHO * A_60E1 / (E * IY_60E1)) ** 0.25
+    y_eb = w * math.sqrt(2) / (4 * E * IY_60E1 * kb**3)
+    assert abs(y / y_eb - 1) < 0.02
+
+
 CHECKS = {
+    "free_mobility": {"free_mobility_point_100hz": check_free_point_100hz},
     "site_track": {
         "point_mobility_100hz": check_site_point_100hz,
         "decay_rate_100hz_band": check_site_decay_100hz,
