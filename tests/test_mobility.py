@@ -374,7 +374,7 @@ def test_patch_point_receptance_converges_single_node_does_not():
 
 @pytest.mark.slow
 def test_patch_point_receptance_fine_meshes():
-    """10 / 7.5 / 5 mm (about 90 s). Measured: patch changes 0.40 %, 0.47 %; single node
+    """10 / 7.5 / 5 mm (about 130 s). Measured: patch changes 0.40 %, 0.47 %; single node
     22 %, 37 %."""
     h = (0.010, 0.0075, 0.005)
     vals = np.array([point_and_patch(hh, 2000.0) for hh in h])
