@@ -32,8 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from .mobility import FamilyResponse, Location, _kernels, combine, surface_patch, wave_sum, \
-    wave_terms
+from .mobility import FamilyResponse, Location, _kernels, combine, wave_sum, wave_terms
 from .supports import SupportLayout, dynamic_stiffness, foot_spring_weights
 from .waveguide import Waveguide
 from .waves import FamilyOperators, frozen_tail, join, waves_at
