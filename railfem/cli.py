@@ -323,20 +323,20 @@ def _mobility_args(p: argparse.ArgumentParser) -> None:
 
 
 def _mobility_run(args) -> int:
-    from . import jobs
+    from . import mobilityjob
 
     if args.mesh is None and args.h < 1.0:
         raise BadInput(f"--h is the element size in mm like for the other commands; "
                        f"{args.h:g} mm is too fine (did you mean {args.h * 1e3:g}?)")
     frequencies = None if args.freq is None else _frequency_spec(args.freq)
-    x = jobs.DEFAULT_MOBILITY_X if args.x is None else args.x
-    paths = jobs.run_free_mobility(args.profile, args.h * 1e-3, args.out,
-                                   frequencies=frequencies, force=args.force,
-                                   responses=args.response, x=x,
-                                   patch_width=args.patch_width,
-                                   load_length=args.load_length, eta=args.eta,
-                                   mesh_file=args.mesh, method=args.method,
-                                   n_waves=args.n_waves)
+    x = mobilityjob.DEFAULT_MOBILITY_X if args.x is None else args.x
+    paths = mobilityjob.run_free_mobility(args.profile, args.h * 1e-3, args.out,
+                                          frequencies=frequencies, force=args.force,
+                                          responses=args.response, x=x,
+                                          patch_width=args.patch_width,
+                                          load_length=args.load_length, eta=args.eta,
+                                          mesh_file=args.mesh, method=args.method,
+                                          n_waves=args.n_waves)
     sys.stdout.write(f"wrote {paths['csv']}\nwrote {paths['png']}\nwrote {paths['json']}\n")
     return 0
 
