@@ -25,11 +25,11 @@ table is printed and written to benchmarks/results_mobility.txt (--out).
 from __future__ import annotations
 
 import argparse
-import os
-import platform
 import sys
 import time
 from pathlib import Path
+
+from _common import limit_threads, machine_lines
 
 
 def parse_args(argv=None):
@@ -50,11 +50,9 @@ def parse_args(argv=None):
 
 def main(argv=None):
     args = parse_args(argv)
-    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ[var] = str(args.threads)
+    limit_threads(args.threads)
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     import numpy as np
-    import scipy
 
     from railfem import meshing, mobility, waveguide, waves
     from railfem.materials import Material
@@ -76,14 +74,8 @@ def main(argv=None):
         return out, t_min
 
     emit("railfem free-rail mobility benchmark (60E1, EN 15461 positions)")
-    emit(f"  {time.strftime('%Y-%m-%d %H:%M:%S')}, {platform.node()}, {os.cpu_count()} CPUs, "
-         f"python {platform.python_version()}, numpy {np.__version__}, scipy {scipy.__version__},"
-         f" BLAS threads {args.threads}")
-    try:
-        load = os.getloadavg()
-        emit(f"  load average at start {load[0]:.2f} {load[1]:.2f} {load[2]:.2f}")
-    except OSError:
-        pass
+    for line in machine_lines(args.threads):
+        emit(line)
     emit(f"  force: vertical, 20 mm head patch x 20 mm along the rail, loss factor 0.01; "
          f"outputs: head patch and foot sensor (z) at {len(x)} positions 0 ... {x[-1]:g} m "
          f"= {2 * len(x)} responses; best of {args.repeat} per entry")

@@ -11,10 +11,11 @@ peak resident memory growth and the ratio to the baseline, all measured in this 
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 from pathlib import Path
+
+from _common import limit_threads, machine_lines
 
 
 def main(argv=None):
@@ -23,7 +24,7 @@ def main(argv=None):
     p.add_argument("--threads", type=int, default=1, help="BLAS threads (default 1)")
     p.add_argument("--out", type=Path, default=Path(__file__).with_name("results_track.txt"))
     args = p.parse_args(argv)
-    os.environ["OPENBLAS_NUM_THREADS"] = os.environ["OMP_NUM_THREADS"] = str(args.threads)
+    limit_threads(args.threads)
     import resource
 
     import numpy as np
@@ -51,8 +52,7 @@ def main(argv=None):
             guide, tp.support, tp.spacing, f, load=load, outputs=outs, force_x=fx,
             response_x=rx),
     }
-    lines = [f"# railfem supported-track benchmark, {time.strftime('%Y-%m-%d')}, "
-             f"{os.cpu_count()} CPUs, BLAS threads {args.threads}",
+    lines = ["# railfem supported-track benchmark", *machine_lines(args.threads),
              f"# 60E1 h = {args.h:g} mm, {guide.n_dofs} DOFs "
              f"({guide.families['symmetric'].T.shape[1]} in the symmetric family solved), "
              f"{len(f)} frequencies, {len(fx)} force x {len(rx)} response positions x 2 outputs",
