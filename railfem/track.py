@@ -167,7 +167,9 @@ def discrete_receptance(guide: Waveguide, layout: SupportLayout, frequency, *, l
     """WFE rail on the discrete supports of ``layout`` (each support may differ).
 
     The load is spread over load_length along the rail, outputs are averaged over
-    response_length (equal lengths make the result reciprocal in load and output)."""
+    response_length (equal lengths make the result reciprocal in load and output). The
+    supports are taken exactly as laid out: keep loads and responses well inside them
+    (``trackjob.track_receptance`` re-centres a uniform layout on each load-response pair)."""
     f, fx, rx = _axes(frequency, force_x, response_x)
     springs = foot_springs(guide, n_f)
     st = _setup(guide, load, outputs, springs)
