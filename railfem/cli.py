@@ -20,6 +20,7 @@ import argparse
 import logging
 import os
 import sys
+import threading
 from pathlib import Path
 
 # The solvers work on many small dense and sparse matrices, where threaded BLAS only
@@ -347,6 +348,15 @@ COMMANDS = {
 }
 
 
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("railfem")
+    except PackageNotFoundError:  # running from a source tree that was never installed
+        return "unknown (not installed)"
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="railfem",
@@ -354,6 +364,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", action="count", default=0,
                         help="more log output (-vv for debug)")
     parser.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
+    parser.add_argument("--version", action="version", version=f"railfem {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, (add_args, run, help_text) in COMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
@@ -407,13 +418,39 @@ def _setup_logging(verbose: int, quiet: bool):
     return restore
 
 
+def _terminate(signum, frame):
+    # SIGTERM (kill, a batch scheduler) unwinds like Ctrl-C, so that temporary files of
+    # the atomic writer are removed instead of being left behind
+    raise KeyboardInterrupt
+
+
+def _stdout_closed() -> int:
+    """The reader of our stdout went away (``railfem ... | head``): not an error of ours.
+    Point stdout at devnull so the interpreter's final flush does not complain again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):
+        pass
+    return 0
+
+
 def main(argv=None) -> int:
     """Entry point of the ``railfem`` command; returns the exit code."""
+    import signal
+
     parser = build_parser()
     args = parser.parse_args(argv)  # exits with code 2 on malformed arguments
     restore_logging = _setup_logging(args.verbose, args.quiet)
+    previous_term = None
+    if threading.current_thread() is threading.main_thread():
+        previous_term = signal.signal(signal.SIGTERM, _terminate)
     try:
-        return int(args._run(args) or 0)
+        code = int(args._run(args) or 0)
+        sys.stdout.flush()
+        return code
+    except BrokenPipeError:
+        return _stdout_closed()
     except (BadInput, ValueError, OSError, KeyError) as exc:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         log.debug("traceback of the error below", exc_info=True)
@@ -423,6 +460,8 @@ def main(argv=None) -> int:
         sys.stderr.write("railfem: interrupted\n")
         return 130
     finally:
+        if previous_term is not None:
+            signal.signal(signal.SIGTERM, previous_term)
         restore_logging()
 
 

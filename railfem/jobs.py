@@ -13,7 +13,6 @@ import json
 import logging
 import os
 import re
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,15 +20,12 @@ from pathlib import Path
 import numpy as np
 
 from . import meshing, section, waveguide, waves
+from .atomic import prepare_output_dir, write_text
 from .materials import Material
 from .profiles import EN13674_60E1, RailProfile, get_profile, polygon_properties
 
 log = logging.getLogger(__name__)
 
-# Permissions of written files: what open() would give (0666 minus the umask).
-_UMASK = os.umask(0)
-os.umask(_UMASK)
-_FILE_MODE = 0o666 & ~_UMASK
 
 #: Frequency (Hz) of the default wave-shape renders: on UIC60 the vertical and lateral
 #: bending, torsion, longitudinal and the first web-bending wave all propagate at 2 kHz
@@ -74,19 +70,8 @@ def progress_logger(what: str, *, min_interval: float = 2.0, logger=None):
 
 
 def write_text_atomic(path, text: str) -> Path:
-    """Write text to ``path`` atomically (parent folders are created)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}-", dir=path.parent)
-    try:
-        os.chmod(tmp, _FILE_MODE)  # mkstemp gives 0600; outputs get the usual mode
-        with os.fdopen(fd, "w", newline="") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
+    """Write text to ``path`` atomically (parent folders are created): railfem.atomic."""
+    return write_text(path, text)
 
 
 def _json_safe(obj):
@@ -212,8 +197,8 @@ def run_mesh(profile, h: float, out_dir) -> dict:
     """Mesh ``profile`` at element size ``h`` (m); write <name>.npz, <name>_quality.json and
     <name>_quality.txt in ``out_dir``. Returns {'mesh', 'json', 'txt', 'quality'}."""
     prof = _resolve_profile(profile)
+    out = prepare_output_dir(out_dir, "mesh")
     mesh = meshing.mesh_profile(prof, h)
-    out = Path(out_dir)
     npz = meshing.save_mesh(mesh, out / f"{mesh.name}.npz")
     q = mesh_quality(mesh)
     js = write_text_atomic(out / f"{mesh.name}_quality.json", json.dumps(q, indent=2) + "\n")
@@ -326,7 +311,7 @@ def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=Non
 
     if (frequencies is None) == (k_values is None):
         raise ValueError("give either frequencies (Hz) or k_values (rad/m), not both/neither")
-    out = Path(out_dir)
+    out = prepare_output_dir(out_dir, "dispersion")
     material = Material.steel(loss_factor)
     mesh = load_or_mesh(profile, h, mesh_file)
     guide = waveguide.assemble(mesh, material)
@@ -388,6 +373,7 @@ def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=Non
                         len(shapes))
     paths["renders"] = renders
     meta = {
+        "command": "dispersion",
         "profile": mesh.profile.name, "profile_source": mesh.profile.source, "mesh": mesh.name,
         "h_m": mesh.h, "n_dofs": guide.n_dofs,
         "material": {"E": material.E, "nu": material.nu, "rho": material.rho,
@@ -462,7 +448,7 @@ def run_convergence(profile, sizes, out_dir, *, frequencies=(), n_cut_on: int = 
     are given) and convergence.json (all arrays)."""
     from .convergence import convergence_study
 
-    out = Path(out_dir)
+    out = prepare_output_dir(out_dir, "convergence")
     study = convergence_study(_resolve_profile(profile), sizes, frequencies=frequencies,
                               n_cut_on=n_cut_on, reference=reference,
                               progress=progress or progress_logger("convergence (meshes)"))

@@ -15,11 +15,11 @@ from __future__ import annotations
 import logging
 import os
 import sys
-import tempfile
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
+
+from .atomic import atomic_path
 
 log = logging.getLogger(__name__)
 
@@ -31,9 +31,6 @@ _MARKERS = ("o", "s", "^", "v", "D", "<", ">", "p", "h", "*", "X", "P")
 # preferred-number series of nominal one-third-octave centre frequencies (IEC 61260)
 _NOMINAL_MANTISSAS = np.array([1.0, 1.25, 1.6, 2.0, 2.5, 3.15, 4.0, 5.0, 6.3, 8.0, 10.0])
 # Permissions of written files: what open() would give (0666 minus the umask).
-_UMASK = os.umask(0)
-os.umask(_UMASK)
-_FILE_MODE = 0o666 & ~_UMASK
 _NON_GUI_BACKENDS = {"agg", "pdf", "pgf", "ps", "svg", "cairo", "template"}
 
 
@@ -77,18 +74,10 @@ def save_figure(fig, path, *, dpi: int = 150, close: bool = True) -> Path:
     if not hasattr(fig, "savefig"):
         raise TypeError(f"save_figure needs a matplotlib Figure or Axes, got {type(fig)!r}")
     path = Path(path)
-    suffix = path.suffix or ".png"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        os.chmod(tmp, _FILE_MODE)  # mkstemp gives 0600; figures get the usual mode
-        fig.savefig(tmp, format=suffix.lstrip(".").lower(), dpi=dpi)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    if not path.suffix:
+        path = path.with_suffix(".png")
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format=path.suffix.lstrip(".").lower(), dpi=dpi)
     if close:
         _pyplot().close(fig)
     log.info("wrote figure %s", path)
