@@ -212,10 +212,15 @@ def branch_labels(point_label, position, window: float) -> np.ndarray:
     return out
 
 
+def type_in_words(label: str) -> str:
+    """A railfem.labels wave type as a legend entry in words."""
+    return _TYPE_WORDS.get(str(label), str(label)) or "unnamed wave"
+
+
 def branch_names(label, start_frequency) -> np.ndarray:
     """Unique legend entries in words: the wave type, and where several branches share a
     type, each with the frequency (Hz) at which it starts ('..., from 4.2 kHz')."""
-    label = [_TYPE_WORDS.get(str(x), str(x)) or "unnamed wave" for x in label]
+    label = [type_in_words(x) for x in label]
     counts = Counter(label)
     names = []
     for lab, f0 in zip(label, start_frequency):
@@ -352,3 +357,63 @@ def omega_of_k(guide: Waveguide, k, *, n_modes: int = 10, families=FAMILIES,
         per_family[fam] = (track(ss, weight=weight, min_mac=min_mac), ks, fs, ls, ss, weight)
     return _assemble("wavenumber", k, per_family, k,
                      REFERENCE_K_SHARE * max(np.ptp(k), np.finfo(float).tiny))
+
+
+# ------------------------------------------------------------------------------ cut-ons
+@dataclass(frozen=True, kw_only=True)
+class CutOn:
+    """A cross-section wave of the free rail that starts to propagate at ``frequency`` (Hz).
+
+    family: symmetry family; label: its wave type (railfem.labels, from the k = 0 shape);
+    axial: True when the k = 0 shape moves only along the rail (at k = 0 the axial and the
+    in-plane motions of the section are uncoupled, so every cut-on shape is one or the other).
+    """
+
+    frequency: float
+    family: str
+    label: str
+    axial: bool = False
+
+    @property
+    def name(self) -> str:
+        """The wave type in words, '(axial)' added for an axial cut-on shape."""
+        words = type_in_words(self.label)
+        return f"{words} (axial)" if self.axial else words
+
+
+def cut_ons(guide: Waveguide, f_low: float = 0.0, f_high: float = np.inf, *,
+            families=FAMILIES, n_per_family: int = 12) -> list[CutOn]:
+    """The free-rail cut-on frequencies between ``f_low`` and ``f_high`` (Hz), named.
+
+    A cut-on frequency is a non-zero natural frequency of the section at k = 0 (the values
+    of :func:`railfem.waves.cut_on_frequencies`); the wave type comes from the labeller
+    applied to the k = 0 shape. Sorted by frequency.
+
+    Why they show in track decay rates: just above its cut-on a wave's group velocity is
+    near zero, so its spatial decay (about eta omega / (2 c_g) nepers per metre for loss
+    factor eta) is very large. It adds to the response at and near the hammer but not far
+    from it, so the EN 15461 sum of far-to-point response ratios falls and the decay rate
+    rises over a band or two: the 13-15 dB/m spike of the WFE track models at the
+    foot-flapping cut-on (about 5.1 kHz on 60E1) is this real effect of the model, not
+    noise. Supports stiffen the foot, so on a track the foot-flapping cut-on and its spike
+    move somewhat above the free-rail value returned here.
+    """
+    if not (np.isfinite(f_low) and f_low >= 0 and f_high > f_low):
+        raise ValueError(f"need 0 <= f_low < f_high (Hz), got {f_low}, {f_high}")
+    out = []
+    for fam in families:
+        K, M, ops = waves.real_k_mode_matrices(guide, fam, 0.0)
+        n = min(n_per_family + 4, K.shape[0] - 2)
+        w2, vec = spl.eigsh(K, k=n, M=M, sigma=-(2 * np.pi * 100.0) ** 2, which="LM")
+        f = np.sqrt(np.clip(w2, 0, None)) / (2 * np.pi)
+        keep = (f > 1.0) & (f >= f_low) & (f <= f_high)  # rigid motions sit at 0 Hz
+        if not keep.any():
+            continue
+        phi = vec[:, keep].astype(complex)
+        axial = np.einsum("ij,ij->j", phi[: ops.na].conj(), M[: ops.na, : ops.na] @ phi[: ops.na])
+        axial = np.real(axial) > 0.5 * np.real(np.einsum("ij,ij->j", phi.conj(), M @ phi))
+        phi[: ops.na] *= 1j
+        labels = label_shapes(guide, ops, ops.to_reduced(phi))
+        out += [CutOn(frequency=float(fi), family=fam, label=str(lab), axial=bool(ax))
+                for fi, lab, ax in zip(f[keep], labels, axial)]
+    return sorted(out, key=lambda c: c.frequency)

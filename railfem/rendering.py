@@ -32,7 +32,10 @@ AUTO_SCALE_FRACTION = 0.15
 # Split of a 6-node triangle (vertices 0,1,2; midside 3 on 0-1, 4 on 1-2, 5 on 2-0)
 # into 4 counter-clockwise linear triangles.
 _P2_SPLIT = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
-_SCALAR_BAR = {"title": "magnitude", "color": "black", "fmt": "%.2g", "vertical": True,
+#: Colour-bar title of a wave shape: a mode shape has an arbitrary scale (railfem scales
+#: them to unit norm), so its magnitude has no physical unit.
+SHAPE_COLORBAR_TITLE = "|u| (arbitrary units)"
+_SCALAR_BAR = {"title": SHAPE_COLORBAR_TITLE, "color": "black", "fmt": "%.2g", "vertical": True,
                "position_x": 0.87, "position_y": 0.1, "width": 0.06, "height": 0.5,
                "title_font_size": 16, "label_font_size": 14}
 # Permissions of written files: what open() would give (0666 minus the umask).
@@ -159,7 +162,8 @@ def _write_atomic(plotter, path: Path) -> None:
 
 
 def render_wave_shape(nodes, elements, displacement, path, *, title=None, scale=None,
-                      phase=0.0, window_size=(800, 800)) -> Path:
+                      phase=0.0, window_size=(800, 800),
+                      colorbar_title: str = SHAPE_COLORBAR_TITLE) -> Path:
     """Render one cross-section wave shape off-screen to a PNG.
 
     Parameters
@@ -182,6 +186,9 @@ def render_wave_shape(nodes, elements, displacement, path, *, title=None, scale=
         Phase (rad) of the snapshot: the drawn displacement is Re(u e^{i phase}).
     window_size : (int, int)
         Image size in pixels.
+    colorbar_title : str
+        Title of the colour bar of |u|, with its unit (e.g. "|u| (m)" for a forced
+        response; a mode shape has arbitrary units, the default).
 
     Returns
     -------
@@ -214,7 +221,7 @@ def render_wave_shape(nodes, elements, displacement, path, *, title=None, scale=
         surface = _surface_mesh(pv, deformed, p2_to_linear_triangles(elements))
         surface.point_data["|u|"] = magnitude
         plotter.add_mesh(surface, scalars="|u|", cmap="viridis", lighting=False,
-                         scalar_bar_args=_SCALAR_BAR)
+                         scalar_bar_args={**_SCALAR_BAR, "title": str(colorbar_title)})
         plotter.add_mesh(_line_mesh(pv, front, _edge_segments(elements, True)),
                          color="grey", line_width=2, lighting=False)
         outline = deformed.copy()  # PolyData shares memory with `deformed`
