@@ -183,8 +183,8 @@ def branch_labels(point_label, position, window: float) -> np.ndarray:
 
     point_label: (n, nb) names, '' (or None) where a branch is absent. position: (n,) or
     (n, nb) sweep coordinate, increasing along axis 0 (ln f for k(omega), k for omega(k)).
-    Each point weighs half the position steps to its neighbours on the branch, so the vote
-    does not depend on the grid spacing. Near its start a branch is a beam wave (low
+    Each point weighs the stretch of position half way to its neighbours on the branch (cut
+    at the window's end), so the vote does not depend on the grid spacing. Near its start a branch is a beam wave (low
     frequency, small k) or a cross-section mode just cut on: the shapes the labeller's rules
     describe. Further on, branches that veer past each other exchange their character and
     the labeller's names along one branch change with it.
@@ -200,9 +200,11 @@ def branch_labels(point_label, position, window: float) -> np.ndarray:
             out[b] = ""
             continue
         pos, labs = position[ok, b], [str(x) for x in point_label[ok, b]]
-        steps = np.diff(pos)
-        weight = (np.concatenate([steps, [0.0]]) + np.concatenate([[0.0], steps])) / 2
-        weight = np.where(pos <= pos[0] + window, weight, 0.0)
+        # each point stands for the stretch half way to its neighbours, cut to the window
+        mid = (pos[1:] + pos[:-1]) / 2
+        lo = np.concatenate([[pos[0]], mid])
+        hi = np.minimum(np.concatenate([mid, [pos[-1]]]), pos[0] + window)
+        weight = np.clip(hi - lo, 0.0, None)
         if not weight.any():  # a single point
             weight = np.ones(len(labs))
         votes: dict[str, float] = {}

@@ -355,7 +355,7 @@ def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=Non
             log.warning("no propagating wave at %g Hz: nothing to render", render_frequency)
         for i, ws in enumerate(shapes[:max_renders]):
             name = f"wave_{i:02d}_{ws.family}_{_slug(ws.label)}.png"
-            title = (f"{branches.type_in_words(ws.label)}, {ws.family} family, "
+            title = (f"{branches.type_in_words(ws.label)} ({ws.family} family)\n"
                      f"{ws.frequency:g} Hz, k = {ws.k.real:.3g} rad/m")
             renders.append(rendering.render_wave_shape(guide.nodes, guide.elements, ws.shape,
                                                        out / "renders" / name, title=title,

@@ -247,14 +247,15 @@ FAMILY_LINESTYLES = {"symmetric": "-", "antisymmetric": "--"}
 
 def branch_colours(labels) -> list[str]:
     """One colour per branch: the wave type's colour (TYPE_COLOURS) for the first branch of
-    each type, a spare colour for the other branches and for other types."""
-    spare = iter(_SPARE_COLOURS * (1 + len(labels) // len(_SPARE_COLOURS)))
+    each type, a spare colour for the other branches and for other types (repeating only
+    when more than 30 branches need colours)."""
     used: set[str] = set()
     out = []
-    for lab in labels:
+    for i, lab in enumerate(labels):
         colour = TYPE_COLOURS.get(str(lab))
         if colour is None or colour in used:
-            colour = next(c for c in spare if c not in used)
+            free = [c for c in _SPARE_COLOURS if c not in used]
+            colour = free[0] if free else _SPARE_COLOURS[i % len(_SPARE_COLOURS)]
         used.add(colour)
         out.append(colour)
     return out
@@ -334,29 +335,48 @@ def plot_magnitude_phase(frequency, values, labels=None, *,
     return ax_mag, ax_phase
 
 
-def mark_frequencies(ax, marks, *, color="0.3", text_y: float = 0.97, fmt=None):
+def mark_frequencies(ax, marks, *, color="0.3", text_y: float = 0.97, fmt=None,
+                     merge_ratio: float = 1.06):
     """Vertical lines at named frequencies with their names written along them.
 
     marks : dict name -> frequency (Hz), or a sequence of (name, frequency) pairs when names
     repeat (non-finite values and values outside the x range are skipped with a log
-    message). The text reads '<name> <frequency>' unless ``fmt``
-    (name, frequency -> str) says otherwise. Returns the list of lines drawn.
+    message). The text reads '<name> <frequency>' unless ``fmt`` (name, frequency -> str)
+    says otherwise; marks closer than ``merge_ratio`` share one text, joined by '; '.
+    ``text_y`` (axes fraction) is where the text starts: near the top (the default) it
+    hangs down, below 0.5 it rises. Returns the list of lines drawn.
     """
     fmt = fmt or (lambda name, f: f"{name} {_hz_text(f)}")
     low, high = sorted(ax.get_xlim())
-    lines = []
     pairs = marks.items() if isinstance(marks, dict) else marks
+    kept = []
     for name, f in pairs:
         f = float(f)
         if not (np.isfinite(f) and low <= f <= high):
             log.info("not marking %s at %s Hz: outside the plotted %g-%g Hz", name, f, low,
                      high)
             continue
+        kept.append((f, str(name)))
+    kept.sort()
+    lines, groups = [], []
+    for f, name in kept:
         line = ax.axvline(f, color=color, linestyle=":", linewidth=1.0, zorder=1)
         line.set_gid(f"mark:{name}")
-        ax.text(f, text_y, " " + fmt(name, f), transform=ax.get_xaxis_transform(),
-                rotation=90, ha="right", va="top", fontsize="x-small", color=color)
         lines.append(line)
+        if groups and f <= groups[-1][-1][0] * merge_ratio:
+            groups[-1].append((f, name))
+        else:
+            groups.append([(f, name)])
+    for group in groups:
+        texts = [t for t in (fmt(name, f) for f, name in group) if t]
+        if len(texts) == 2:  # two close marks: one name each side of the lines
+            sides = [(group[0][0], texts[0], "right"), (group[-1][0], texts[1], "left")]
+        else:
+            sides = [(group[0][0], "; ".join(texts), "right")] if texts else []
+        for f, text, ha in sides:
+            ax.text(f, text_y, f" {text} ", transform=ax.get_xaxis_transform(), rotation=90,
+                    ha=ha, va="top" if text_y > 0.5 else "bottom", fontsize="x-small",
+                    color=color)
     return lines
 
 
@@ -516,7 +536,8 @@ def plot_decay_rate(centres, decay_rate, labels=None, *, d_min=None, fails=None,
         mark_cut_ons(ax, cut_on)
     handles, _ = ax.get_legend_handles_labels()
     if handles or extra:
-        ax.legend(handles=handles + extra, fontsize="small", loc="best")
+        # low bands at low decay rates are empty on track decay-rate plots
+        ax.legend(handles=handles + extra, fontsize="small", loc="lower left")
     return ax
 
 
@@ -526,7 +547,7 @@ def mark_cut_ons(ax, cut_on):
     if not isinstance(cut_on, dict):
         cut_on = [(c.name, c.frequency) if hasattr(c, "frequency") else tuple(c)
                   for c in cut_on]
-    return mark_frequencies(ax, cut_on, color="tab:purple",
+    return mark_frequencies(ax, cut_on, color="tab:purple", text_y=0.03,
                             fmt=lambda name, f: f"{name} cut-on {_hz_text(f)}")
 
 

@@ -34,9 +34,9 @@ AUTO_SCALE_FRACTION = 0.15
 _P2_SPLIT = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
 #: Colour-bar title of a wave shape: a mode shape has an arbitrary scale (railfem scales
 #: them to unit norm), so its magnitude has no physical unit.
-SHAPE_COLORBAR_TITLE = "|u| (arbitrary units)"
+SHAPE_COLORBAR_TITLE = "amplitude (arb. units)"
 _SCALAR_BAR = {"title": SHAPE_COLORBAR_TITLE, "color": "black", "fmt": "%.2g", "vertical": True,
-               "position_x": 0.87, "position_y": 0.1, "width": 0.06, "height": 0.5,
+               "position_x": 0.83, "position_y": 0.1, "width": 0.06, "height": 0.5,
                "title_font_size": 16, "label_font_size": 14}
 # Permissions of written files: what open() would give (0666 minus the umask).
 # Each edge of a 6-node triangle as (start vertex, midside node, end vertex).
@@ -187,8 +187,9 @@ def render_wave_shape(nodes, elements, displacement, path, *, title=None, scale=
     window_size : (int, int)
         Image size in pixels.
     colorbar_title : str
-        Title of the colour bar of |u|, with its unit (e.g. "|u| (m)" for a forced
-        response; a mode shape has arbitrary units, the default).
+        Title of the colour bar of |u|, with its unit (e.g. "amplitude (m)" for a
+        forced response; a mode shape has arbitrary units, the default). VTK's font has
+        no '|' glyph.
 
     Returns
     -------
