@@ -66,7 +66,7 @@ def read_decay_rate_table(path: str | os.PathLike, *, columns: Mapping[str, str]
         raise ValueError(f"columns has unknown key(s) {sorted(unknown)}; use "
                          f"{', '.join(METADATA_COLUMNS)}.")
     for name, col in mapping.items():
-        table.index(col, role=f"{name}")
+        table.index(col, role=name)
     meta_cols = {n: mapping.get(n, n) for n in METADATA_COLUMNS
                  if mapping.get(n, n) in table.header}
     if "direction" not in meta_cols and direction is None:

@@ -39,12 +39,12 @@ class Table:
     def __init__(self, path: Path, header: list[str], rows: list, comments: list[str]):
         self.path, self.header, self.rows, self.comments = path, header, rows, comments
 
-    def index(self, name: str, role: str = "column") -> int:
+    def index(self, name: str, role: str = "") -> int:
         """Position of column ``name``; a named error lists the columns there are."""
         if name not in self.header:
             shown = self.header if len(self.header) <= 12 else self.header[:12] + ["..."]
             raise file_error(MalformedFileError, self.path, "header",
-                             f"no {role} column {name!r}",
+                             f"no {role + ' ' if role else ''}column {name!r}",
                              f"the columns are {shown}; fix the column name or the mapping")
         return self.header.index(name)
 
