@@ -239,7 +239,7 @@ def _status(decay: float, drop: float, d_min: float, n_used: int, has_point: boo
     if n_used < 2 or not np.isfinite(decay):
         return "fewer than 2 positions"
     if not drop >= far_field_drop_db:
-        return f"far-field drop {drop:.1f} dB < {far_field_drop_db:g} dB"
+        return f"far-field drop {drop + 0.0:.1f} dB < {far_field_drop_db:g} dB"  # no "-0.0"
     if not decay >= d_min:
         return f"D {decay:.3g} < D_min {d_min:.3g} dB/m"
     return ""
