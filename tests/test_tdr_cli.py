@@ -1,4 +1,5 @@
 """``railfem tdr hammer`` and the model-vs-measurement plots."""
+import csv
 import json
 
 import numpy as np
@@ -55,9 +56,11 @@ def test_cli_tdr_hammer_writes_csv_plot_json(tmp_path, capsys):
     np.testing.assert_allclose(d, direct.decay_rate, rtol=1e-12)
     # the floor at -25 dB is excluded (3 points per band leave about +-15 % band scatter)
     assert abs(np.mean(d) / 4.0 - 1) < 0.03
-    table = np.genfromtxt(out / "decay_rate.csv", delimiter=",", names=True, comments="#",
-                          dtype=None, encoding="utf-8")
-    np.testing.assert_allclose(table["head_db_per_m"], d, atol=1e-4)
+    lines = (out / "decay_rate.csv").read_text().splitlines()
+    assert lines[0].startswith("# EN 15461")
+    rows = list(csv.DictReader(lines[1:]))
+    np.testing.assert_allclose([float(r["head_db_per_m"]) for r in rows], d, atol=1e-4)
+    assert [float(r["band_hz"]) for r in rows] == run["decay_rate"]["head"]["band_hz"]
     assert "head: 11 of 11 bands suitable" in capsys.readouterr().out
     # same data, no exclusion: the floor pulls D down
     main(["-q", "tdr", "hammer", str(data), "--out", str(tmp_path / "raw"), "--no-exclusion"])
