@@ -391,6 +391,13 @@ def plot_convergence(h, errors, labels=None, *, ax=None, fit: bool = True,
 
 
 # ------------------------------------------------------- model vs measurement, per band
+def _band_centres(centres) -> np.ndarray:
+    centres = _vector(centres, "centres")
+    if np.any(centres <= 0):
+        raise ValueError("centres must be positive band centre frequencies in Hz")
+    return centres
+
+
 def plot_band_overlay(centres, measured, model=None, *, valid=None,
                       labels=("measured", "model"), ylabel: str = "Decay rate (dB/m)",
                       ax=None, logy: bool = False):
@@ -400,9 +407,7 @@ def plot_band_overlay(centres, measured, model=None, *, valid=None,
     None); valid : bool like ``measured`` — bands that failed their checks (False) are drawn
     as open markers and named in the legend. Returns the Axes.
     """
-    centres = _vector(centres, "centres")
-    if np.any(centres <= 0):
-        raise ValueError("centres must be positive band centre frequencies in Hz")
+    centres = _band_centres(centres)
     meas = _columns(measured, centres.size, "measured", "centres")
     ok = (np.ones(meas.shape, bool) if valid is None
           else _columns(valid, centres.size, "valid", "centres", dtype=bool))
@@ -424,6 +429,11 @@ def plot_band_overlay(centres, measured, model=None, *, valid=None,
         for j in range(mod.shape[1]):
             suffix = f" {j + 1}" if mod.shape[1] > 1 else ""
             ax.plot(centres, mod[:, j], "-", label=f"{names[1] or 'model'}{suffix}")
+    return _band_axes(ax, centres, ylabel, logy=logy)
+
+
+def _band_axes(ax, centres, ylabel: str, *, logy: bool = False, grid_axis: str = "both"):
+    """Log band axis with nominal labels, value label, grid and legend; returns ``ax``."""
     ax.set_xscale("log")
     if logy:
         ax.set_yscale("log")
@@ -431,7 +441,7 @@ def plot_band_overlay(centres, measured, model=None, *, valid=None,
     _band_ticks(ax, centres)
     ax.set_xlabel("One-third-octave band centre frequency (Hz)")
     ax.set_ylabel(ylabel)
-    ax.grid(True, which="major", alpha=0.3)
+    ax.grid(True, which="major", axis=grid_axis, alpha=0.3)
     _legend(ax)
     return ax
 
@@ -442,9 +452,7 @@ def plot_band_residual(centres, residual, labels=None, *, ylabel: str = "Model -
 
     NaN residuals (bands not compared) leave a gap. Returns the Axes.
     """
-    centres = _vector(centres, "centres")
-    if np.any(centres <= 0):
-        raise ValueError("centres must be positive band centre frequencies in Hz")
+    centres = _band_centres(centres)
     r = _columns(residual, centres.size, "residual", "centres")
     names = _labels(labels, r.shape[1])
     ax = _axes(ax)
@@ -454,13 +462,7 @@ def plot_band_residual(centres, residual, labels=None, *, ylabel: str = "Model -
         left = centres * width ** (j - n / 2)
         ax.bar(left, r[:, j], width=left * (width - 1), align="edge", label=name)
     ax.axhline(0.0, color="black", linewidth=0.8)
-    ax.set_xscale("log")
-    _band_ticks(ax, centres)
-    ax.set_xlabel("One-third-octave band centre frequency (Hz)")
-    ax.set_ylabel(ylabel)
-    ax.grid(True, which="major", axis="y", alpha=0.3)
-    _legend(ax)
-    return ax
+    return _band_axes(ax, centres, ylabel, grid_axis="y")
 
 
 __all__ = [
