@@ -23,8 +23,8 @@ What is EN 15461 and what is railfem's (see also :mod:`railfem.standards.en15461
       of the rest of the band have stopped falling, which is what a noise floor does and an
       exponential decay does not; so clean data lose nothing however steep their decay,
       while the METHOD.md rule without the test (``floor_drop_db=None``) also cuts real
-      positions beyond -15 dB in strongly decaying bands (a small upward bias, ~+4 % at
-      24 dB/m);
+      positions beyond -15 dB in strongly decaying bands (an upward bias of +4 to +5 % for
+      clean exponentials of 10 - 30 dB/m on the standard grid);
   (b) optionally, an implied-attenuation range (e.g. 3 - 30 dB/m below 400 Hz): positions
       farther than 1 m whose ``20 lg|Y_0/Y_i| / x_i`` is outside it are dropped. Off by
       default: measured tracks decay by less than 3 dB/m at 100 Hz (the SBB Niederwangen
