@@ -335,6 +335,51 @@ def _mobility_run(args) -> int:
 
 
 #: name -> (add_arguments(parser), run(args) -> exit code, help)
+# ------------------------------------------------------------ decay rate from data
+def _tdr_args(p: argparse.ArgumentParser) -> None:
+    sub = p.add_subparsers(dest="method", metavar="METHOD", required=True)
+    h = sub.add_parser("hammer", help="EN 15461 hammer method on a measurement",
+                       description="EN 15461 decay rate of a hammer measurement: a dataset "
+                       "folder (frf.csv + meta.json) or a TOML descriptor of a CSV/UFF file.")
+    h.add_argument("data", type=Path, metavar="DATA", help="dataset folder or .toml descriptor")
+    h.add_argument("--sensor", nargs="+", metavar="NAME", help="sensors to use (default all)")
+    h.add_argument("--threshold-db", type=_finite, default=-15.0, metavar="DB",
+                   help="noise-floor candidates: level re the point FRF below this (default -15)")
+    h.add_argument("--floor-drop-db", type=_positive, default=3.0, metavar="DB",
+                   help="a tail is a noise floor when it falls less than this (default 3)")
+    h.add_argument("--plain-threshold", action="store_true",
+                   help="drop everything below the threshold (no flat-tail test)")
+    h.add_argument("--attenuation-range", type=_non_negative, nargs=2, metavar=("LOW", "HIGH"),
+                   help="also drop positions implying an attenuation outside LOW..HIGH dB/m "
+                   "below 400 Hz (e.g. 3 30); off by default")
+    h.add_argument("--no-exclusion", action="store_true", help="use every position")
+    h.add_argument("--point", choices=("nominal", "realised"), default="nominal",
+                   help="weight the point FRF at x = 0 (EN 15461, default) or where it was struck")
+    h.add_argument("--out", type=Path, default=Path("railfem-output/tdr"), metavar="DIR",
+                   help="output folder (default railfem-output/tdr)")
+
+
+def _tdr_run(args) -> int:
+    from .estimators.tdr import NO_EXCLUSION, NoiseFloorExclusion
+    from .tdrjob import run_tdr_hammer
+
+    if args.no_exclusion:
+        exclusion = NO_EXCLUSION
+    else:
+        exclusion = NoiseFloorExclusion(
+            threshold_db=args.threshold_db,
+            floor_drop_db=None if args.plain_threshold else args.floor_drop_db,
+            attenuation_range=None if args.attenuation_range is None else tuple(args.attenuation_range))
+    s = run_tdr_hammer(args.data, args.out, exclusion=exclusion, point=args.point,
+                       sensors=args.sensor)
+    for name, r in s["decay_rate"].items():
+        n_ok = sum(r["suitable"])
+        sys.stdout.write(f"{name}: {n_ok} of {len(r['suitable'])} bands suitable\n")
+    for v in s["files"].values():
+        sys.stdout.write(f"wrote {v}\n")
+    return 0
+
+
 COMMANDS = {
     "mesh": (_mesh_args, _mesh_run, "mesh a rail profile and write a mesh-quality summary"),
     "dispersion": (_dispersion_args, _dispersion_run,
@@ -345,6 +390,7 @@ COMMANDS = {
                  "free-rail point and transfer mobilities (CSV, plot)"),
     "track": (_track_args, _track_run,
               "supported track of a Table 1 preset: mobilities, EN 15461 decay rates, plots"),
+    "tdr": (_tdr_args, _tdr_run, "track decay rate from measured or simulated data"),
 }
 
 
