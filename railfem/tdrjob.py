@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 from .estimators import tdr
-from .jobs import write_text_atomic
+from .atomic import prepare_output_dir, write_text_atomic
 
 log = logging.getLogger(__name__)
 
@@ -35,13 +35,12 @@ def run_tdr_hammer(data, out_dir, *, exclusion: tdr.NoiseFloorExclusion = tdr.No
     from .io import read_measurement
 
     t0 = time.perf_counter()
+    out = prepare_output_dir(out_dir, "tdr hammer")
     m = read_measurement(data)
     names = list(sensors) if sensors else list(m.sensor_names)
     for n in names:
         m.sensor(n)  # unknown names fail before any computing
     results = {n: tdr.hammer(m, n, exclusion=exclusion, point=point) for n in names}
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     first = results[names[0]]
     head = ["band_hz"] + [f"{n}_{c}" for n in names
                          for c in ("db_per_m", "suitable", "n_used", "d_min_db_per_m", "status")]
@@ -65,6 +64,7 @@ def run_tdr_hammer(data, out_dir, *, exclusion: tdr.NoiseFloorExclusion = tdr.No
     ax.set_title(f"EN 15461 decay rate: {Path(data).name}")
     paths["decay_png"] = plotting.save_figure(ax.figure, out / "decay_rate.png")
     summary = {
+        "command": "tdr hammer",
         "data": str(data),
         "measurement": {"quantity": m.frf.quantity, "n_frequencies": int(m.frequency.size),
                         "frequency_hz": [float(m.frequency[0]), float(m.frequency[-1])],
