@@ -89,6 +89,22 @@ def write_text_atomic(path, text: str) -> Path:
     return path
 
 
+def write_bytes_atomic(path, data: bytes) -> Path:
+    """Write bytes to ``path`` atomically (parent folders are created)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}-", dir=path.parent)
+    try:
+        os.chmod(tmp, _FILE_MODE)
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
 def _json_safe(obj):
     """Nested lists/dicts with NaN and inf replaced by None (strict JSON)."""
     if isinstance(obj, dict):

@@ -187,8 +187,10 @@ class PassbyResult:
     settings: dict = field(default_factory=dict)
 
     def band_level(self, v_ref: float = 1e-9) -> np.ndarray:
-        """(nb, nx) band velocity level, dB re v_ref (default 1e-9 m/s)."""
-        return 20 * np.log10(self.band_velocity / v_ref)
+        """(nb, nx) band velocity level, dB re v_ref (default 1e-9 m/s); -inf where no
+        wheel is within the rail tables' max_distance of the sensor."""
+        with np.errstate(divide="ignore"):
+            return 20 * np.log10(self.band_velocity / v_ref)
 
     def average_level(self, window=None, v_ref: float = 1e-9) -> np.ndarray:
         """(nb,) pass-by average: 10 lg of the mean of |V|^2 over the positions in window
