@@ -39,7 +39,7 @@ from .train import TrainLayout
 log = logging.getLogger(__name__)
 
 __all__ = ["RailTables", "rail_tables", "table_receptance", "PassbyResult", "simulate_passby",
-           "train_positions", "DEFAULT_STEP", "FORMS", "OUTPUTS"]
+           "train_positions", "simplified_band_velocity", "DEFAULT_STEP", "FORMS", "OUTPUTS"]
 
 DEFAULT_STEP = 0.1  # m, METHOD.md section 5
 FORMS = ("exact", "paper")
@@ -269,3 +269,21 @@ def simulate_passby(tables: RailTables, train: TrainLayout, wheel_receptance,
     cfg.update(settings or {})
     return PassbyResult(frequency=f, position=X, velocity_sq=vel, force_sq=force, bands=bands,
                         band_velocity=band_v, roughness=np.asarray(r), settings=cfg)
+
+
+def simplified_band_velocity(frequency, bands, *, rail_receptance, sensor_receptance,
+                             wheel_receptance, contact_receptance, roughness, decay_rate,
+                             n_wheels: int, length: float) -> np.ndarray:
+    """METHOD.md section 8, simplified method, forward: band RMS sensor velocity (m/s)
+
+        v^2 = <omega^2 |alpha_s|^2 |r|^2 / |alpha_rh + alpha_w + alpha_c|^2>_band N/(beta L)
+
+    with beta = D / (20 lg e) (D the band decay rate, dB/m) and L the length of train
+    positions the average runs over (docs/passby.md derives the constant). Arrays are
+    narrow-band on ``frequency``; decay_rate is per band of ``bands``."""
+    w2 = (2 * np.pi * np.asarray(frequency)) ** 2
+    num = w2 * np.abs(sensor_receptance) ** 2 * np.asarray(roughness) ** 2
+    per_wheel = num / np.abs(rail_receptance + wheel_receptance + contact_receptance) ** 2
+    band = iec61260.band_average(frequency, np.sqrt(per_wheel), bands) ** 2
+    beta = np.asarray(decay_rate) / (20 * np.log10(np.e))
+    return np.sqrt(band * n_wheels / (beta * length))
