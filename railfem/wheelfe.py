@@ -380,7 +380,7 @@ def harmonic_modes(wheel: AxisymmetricWheel, n: int, f_cut: float, *,
     keep = lam <= target
     lam, vec = lam[keep], vec[:, keep]
     vec = vec / np.sqrt(np.einsum("ij,ij->j", vec, M @ vec))
-    full = (T @ vec).T.reshape(len(lam), -1)
+    full = (T @ vec).T.reshape(len(lam), T.shape[0])  # no rows when no mode is below f_cut
     shapes = full[:, wheel.node_dofs]  # (m, N, 3)
     # residual compliance of the truncated modes between radial and axial contact forces
     e = np.zeros((T.shape[0], 2))

@@ -132,3 +132,10 @@ def test_tabulated_wheel_round_trip(tmp_path):
                        rtol=1e-9)
     with pytest.raises(ValueError, match="covers"):
         tab.receptance([20.0])
+
+
+def test_harmonic_without_modes_below_the_cut_off():
+    mesh = wheelfe.rectangle_mesh(0.45, 0.46, -0.005, 0.005, 2, 2)
+    hm = wheelfe.harmonic_modes(wheelfe.assemble(mesh), 12, 10.0)
+    assert hm.frequency.size == 0 and hm.shapes.shape[0] == 0
+    assert hm.residual[0, 0] > 0  # all of the harmonic's compliance is residual

@@ -81,11 +81,16 @@ class QuasiStatic:
 
 
 def quasi_static(track, load: float, EI: float | None = None) -> QuasiStatic:
-    """QuasiStatic for a TrackPreset (static K_s(0) per sleeper spacing) and wheel load;
+    """QuasiStatic for a TrackPreset (static K_s(0) = kp kb/(kp + kb) per sleeper spacing)
+    and wheel load;
     EI defaults to the EN 13674-1 60E1 value (E = 210 GPa, I = 3038.3 cm^4)."""
+    from dataclasses import replace
+
     from ..supports import dynamic_stiffness
 
-    ks = float(np.real(dynamic_stiffness(track.support, np.array([0.0]))[0]))
+    # static stiffness: pad and ballast in series without their loss factors
+    elastic = replace(track.support, eta_p=0.0, eta_b=0.0)
+    ks = float(np.real(dynamic_stiffness(elastic, np.array([0.0]))[0]))
     return QuasiStatic(load=load, EI=EI or 2.1e11 * 3038.3e-8, foundation=ks / track.spacing)
 
 
