@@ -355,14 +355,11 @@ def harmonic_modes(wheel: AxisymmetricWheel, n: int, f_cut: float, *,
     compliance of the rest at the contact (evaluated at omega^2 = -(2 pi shift_hz)^2)."""
     if int(n) != n or n < 0:
         raise ValueError(f"harmonic n = {n!r}: give an integer >= 0")
-    T, _ = _reduction(wheel, int(n))
+    T, ring = _reduction(wheel, int(n))
     K = (T.T @ wheel.stiffness(int(n)) @ T).tocsc()
     M = (T.T @ wheel.mass_matrix(int(n)) @ T).tocsc()
-    if 0 < wheel.axle_mass < math.inf:
-        _, ring = _reduction(wheel, int(n))
-        if ring is not None:
-            add = sp.csc_matrix(([wheel.axle_mass], ([ring], [ring])), shape=M.shape)
-            M = M + add
+    if ring is not None and 0 < wheel.axle_mass < math.inf:
+        M = M + sp.csc_matrix(([wheel.axle_mass], ([ring], [ring])), shape=M.shape)
     s = (2 * math.pi * shift_hz) ** 2
     lu = spla.splu((K + s * M).tocsc())
     opinv = spla.LinearOperator(K.shape, matvec=lu.solve, dtype=float)
@@ -402,15 +399,19 @@ def default_damping(n: int) -> float:
     return 1e-3 if n == 0 else (1e-2 if n == 1 else 1e-4)
 
 
-def all_modes(wheel: AxisymmetricWheel, n_max: int, f_cut: float,
+def all_modes(wheel: AxisymmetricWheel, n_max: int | None, f_cut: float,
               progress=None) -> list[HarmonicModes]:
-    """harmonic_modes for n = 0 .. n_max."""
+    """harmonic_modes for n = 0 .. n_max; n_max=None: up to the first harmonic n >= 2 with
+    no mode below f_cut (the lowest mode of a harmonic rises with n from there on)."""
     out = []
     t0 = time.perf_counter()
-    for n in range(int(n_max) + 1):
+    limit = 200 if n_max is None else int(n_max)
+    for n in range(limit + 1):
         out.append(harmonic_modes(wheel, n, f_cut))
         if progress:
-            progress(n + 1, int(n_max) + 1)
-    log.info("wheel modes n = 0..%d below %.0f Hz: %d modes in %.1f s", n_max, f_cut,
+            progress(n + 1, limit + 1)
+        if n_max is None and n >= 2 and out[-1].frequency.size == 0:
+            break
+    log.info("wheel modes n = 0..%d below %.0f Hz: %d modes in %.1f s", len(out) - 1, f_cut,
              sum(len(h.frequency) for h in out), time.perf_counter() - t0)
     return out
