@@ -263,6 +263,8 @@ def _passby_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--speed-kmh", type=_positive, help="train speed (km/h, default 216)")
     p.add_argument("--roughness", type=Path, metavar="FILE", help="roughness spectrum: "
                    "wavelength_m,level_db_re_1um CSV or the SBB wide table")
+    p.add_argument("--roughness-hold", action="store_true",
+                   help="hold the roughness spectrum's end levels beyond its wavelengths")
     p.add_argument("--wheel", help="rigid (default), flexible, or an FRF CSV file")
     p.add_argument("--f-low", type=_positive, help="lowest band (Hz, default 100)")
     p.add_argument("--f-high", type=_positive, help="highest band (Hz, default 5000)")
@@ -300,7 +302,8 @@ def _passby_run(args) -> int:
     opts.update({k: (str(v) if isinstance(v, Path) else v) for k, v in given.items()
                  if v is not None})
     for flag, key, value in ((args.no_interaction, "interaction", False),
-                             (args.continuous, "continuous", True), (args.signal, "signal", True)):
+                             (args.continuous, "continuous", True), (args.signal, "signal", True),
+                             (args.roughness_hold, "roughness_hold", True)):
         if flag:
             opts[key] = value
     s = run_passby(args.out, **opts)

@@ -38,7 +38,8 @@ __all__ = ["run_passby", "read_config", "make_wheel", "roughness_spectrum", "WHE
 WHEEL_MODELS = ("rigid", "flexible")
 CONTACT_FILTERS = ("analytical", "numerical", "none")
 DEFAULTS = dict(preset="site", model="wfe-discrete", speed_kmh=216.0, train=None,
-                roughness=None, roughness_select=None, wheel="rigid", wheel_mass=None,
+                roughness=None, roughness_select=None, roughness_hold=False, wheel="rigid",
+                wheel_mass=None,
                 f_low=100.0, f_high=5000.0, form="exact", interaction=True, continuous=False,
                 output="foot", contact_filter="analytical", wheel_load=None,
                 before=30.0, after=30.0, max_distance=30.0, signal=False,
@@ -149,7 +150,9 @@ def run_passby(out_dir, *, tables: P.RailTables | None = None, mesh=None, **opti
     speed = opts["speed_kmh"] / 3.6
     f = iec61260.ninth_octave_grid(opts["f_low"], opts["f_high"]) if tables is None \
         else tables.frequency
-    amp = rough.amplitude_at(spec, f, speed)  # fails early if the spectrum is too short
+    # fails early if the spectrum does not cover the frequencies (unless told to hold)
+    amp = rough.amplitude_at(spec, f, speed,
+                             outside="hold" if opts["roughness_hold"] else "raise")
     wheel = make_wheel(opts["wheel"], f, mass=opts["wheel_mass"],
                        progress=progress_logger("wheel modes"))
     load = opts["wheel_load"] or contact.DEFAULT_WHEEL_LOAD

@@ -106,8 +106,8 @@ def amplitude_at(spectrum: RoughnessSpectrum, frequency, speed: float, *,
                 f"roughness spectrum {spectrum.name!r} covers wavelengths "
                 f"{spectrum.wavelength[-1] * 1e3:.3g}-{spectrum.wavelength[0] * 1e3:.4g} mm; at "
                 f"{speed:.4g} m/s the frequencies {f[bad].min():.4g}-{f[bad].max():.4g} Hz "
-                "fall outside: narrow the frequency range, change the speed or pass "
-                "outside='hold'")
+                "fall outside: narrow the frequency range, change the speed or hold the end "
+                "levels (outside='hold'; railfem passby --roughness-hold)")
     elif outside != "hold":
         raise ValueError(f"outside = {outside!r}: choose 'raise' or 'hold'")
     level = np.interp(np.log(lam), x, y)

@@ -52,3 +52,20 @@ def test_config_unknown_key(tmp_path, capsys):
     cfg.write_text("speed = 200\n")
     assert main(["passby", "--config", str(cfg), "--out", str(tmp_path / "o")]) == 2
     assert "unknown keys" in capsys.readouterr().err
+
+
+def test_sbb_roughness_table_and_hold(tmp_path, capsys):
+    """The SBB wide table as the roughness input: too short for 100 Hz at 216 km/h
+    (lambda = 0.6 m > 0.32 m) unless the end levels are held."""
+    table = tmp_path / "sbb.csv"
+    lam_cm = [31.6228, 25.1189, 19.9526, 15.8489, 12.5893, 10, 7.9433, 6.3096, 5.0119,
+              3.9811, 3.1623, 2.5119, 1.9953, 1.5849, 1.2589, 1]
+    table.write_text("loc,sec,r_id,Author,kampagne,messdatum,rail," + ",".join(map(str, lam_cm))
+                     + "\nNi,B5,1.0,MBBM,1,2015-01-01,L," + ",".join(["-5.0"] * 16) + "\n")
+    args = ["passby", "--model", "timoshenko-discrete", "--roughness", str(table),
+            "--f-low", "100", "--f-high", "500", "--max-distance", "5"]
+    assert main([*args, "--out", str(tmp_path / "a")]) == 2
+    assert "--roughness-hold" in capsys.readouterr().err
+    assert main([*args, "--roughness-hold", "--out", str(tmp_path / "b")]) == 0
+    run = json.loads((tmp_path / "b" / "run.json").read_text())
+    assert run["roughness"].startswith("SBB")
