@@ -284,6 +284,8 @@ def _passby_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--position-error", type=_non_negative, metavar="M",
                    help="sigma of the wheel-position error of the pulses (m, default 0)")
     p.add_argument("--seed", type=int, help="random seed of the signal (default 0)")
+    p.add_argument("--no-speed", action="store_true",
+                   help="leave the train speed out of the recording's metadata")
     p.add_argument("--out", type=Path, default=Path("railfem-output/passby"), metavar="DIR",
                    help="output folder (default railfem-output/passby)")
 
@@ -303,7 +305,8 @@ def _passby_run(args) -> int:
                  if v is not None})
     for flag, key, value in ((args.no_interaction, "interaction", False),
                              (args.continuous, "continuous", True), (args.signal, "signal", True),
-                             (args.roughness_hold, "roughness_hold", True)):
+                             (args.roughness_hold, "roughness_hold", True),
+                             (args.no_speed, "speed_known", False)):
         if flag:
             opts[key] = value
     s = run_passby(args.out, **opts)

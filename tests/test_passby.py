@@ -119,7 +119,6 @@ def test_simplified_formula_recovered_under_its_assumptions():
                                    wheel_receptance=aw, contact_receptance=ac, roughness=r,
                                    decay_rate=D, n_wheels=train.n_wheels, length=L)
     diff = res.average_level() - 20 * np.log10(v / 1e-9)
-    print("simplified formula, full - simplified (dB):", np.round(diff, 3))
     assert np.all(np.abs(diff) < 0.5), diff
 
 

@@ -16,7 +16,7 @@ def test_passby_command_writes_everything(tmp_path, capsys):
     (tmp_path / "train.toml").write_text("axle_offsets_m = [0.0, 2.6, 17.0, 19.6]\n")
     out = tmp_path / "out"
     code = main(["passby", "--config", str(cfg), "--speed-kmh", "180", "--signal",
-                 "--out", str(out)])
+                 "--no-speed", "--out", str(out)])
     assert code == 0
     run = json.loads((out / "run.json").read_text())
     assert run["train"]["n_wheels"] == 4 and run["speed_m_per_s"] == pytest.approx(50.0)
@@ -32,7 +32,9 @@ def test_passby_command_writes_everything(tmp_path, capsys):
     diff = np.array([float(r[3]) for r in rows[1:]])
     assert np.allclose(diff, run["exact_minus_paper_db"], atol=1e-3)
     rec = read_recording(out / "passby.wav")
-    assert rec.speed == pytest.approx(50.0) and rec.sample_rate == 25600.0
+    assert rec.speed is None and rec.sample_rate == 25600.0  # --no-speed
+    truth = json.loads((out / "passby.truth.json").read_text())
+    assert truth["speed_m_per_s"] == pytest.approx(50.0)
     assert "wrote" in capsys.readouterr().out
 
 
