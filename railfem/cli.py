@@ -6,6 +6,7 @@
     railfem dispersion --k-range 0.1 30 60 --out DIR        omega(k) instead of k(omega)
     railfem convergence --profile 60E1 --sizes 20 15 10 7.5 5 --frequencies 1000 --out DIR
     railfem mobility --free --freq 50:8000:60 --response head foot_sensor --x 0 0.3 --out DIR
+    railfem passby --preset site --speed-kmh 216 --wheel flexible --signal --out DIR
 
 Lengths on the command line are in mm (element sizes), frequencies in Hz, wavenumbers in
 rad/m. Each subcommand parses its arguments and calls one function of
@@ -246,6 +247,77 @@ def _track_run(args) -> int:
     return 0
 
 
+# ------------------------------------------------------------------------ pass-by
+def _passby_args(p: argparse.ArgumentParser) -> None:
+    from .passbyjob import CONTACT_FILTERS
+    from .simulate.passby import CONTINUOUS_OF, FORMS, OUTPUTS
+    from .supports import PRESETS
+
+    p.add_argument("--config", type=Path, metavar="TOML",
+                   help="options from a TOML file (keys = option names with underscores); "
+                        "options given here override it")
+    p.add_argument("--preset", choices=sorted(PRESETS), help="track (default site)")
+    p.add_argument("--model", choices=sorted(CONTINUOUS_OF), help="track model "
+                   "(default wfe-discrete)")
+    p.add_argument("--train", type=Path, metavar="FILE", help="train layout (TOML/JSON); "
+                   "default 6 cars, 24 wheels over 120 m")
+    p.add_argument("--speed-kmh", type=_positive, help="train speed (km/h, default 216)")
+    p.add_argument("--roughness", type=Path, metavar="FILE", help="roughness spectrum: "
+                   "wavelength_m,level_db_re_1um CSV or the SBB wide table")
+    p.add_argument("--roughness-hold", action="store_true",
+                   help="hold the roughness spectrum's end levels beyond its wavelengths")
+    p.add_argument("--wheel", help="rigid (default), flexible, or an FRF CSV file")
+    p.add_argument("--f-low", type=_positive, help="lowest band (Hz, default 100)")
+    p.add_argument("--f-high", type=_positive, help="highest band (Hz, default 5000)")
+    p.add_argument("--form", choices=FORMS, help="incoherent sum: exact (default) or paper")
+    p.add_argument("--no-interaction", action="store_true",
+                   help="neglect interference between wheels (diagonal rail mobility)")
+    p.add_argument("--continuous", action="store_true",
+                   help="position-independent rail (continuous support)")
+    p.add_argument("--output", choices=OUTPUTS, help="sensor on the rail foot (default) or head")
+    p.add_argument("--contact-filter", choices=CONTACT_FILTERS, help="default analytical")
+    p.add_argument("--max-distance", type=_positive, metavar="M",
+                   help="largest wheel-sensor distance in the rail tables (m, default 30)")
+    p.add_argument("--signal", action="store_true", help="also write the time signal")
+    p.add_argument("--sample-rate", type=_positive, help="Hz (default 25600)")
+    p.add_argument("--noise-fraction", type=_non_negative,
+                   help="band noise RMS as a fraction of the band's largest RMS (default 0)")
+    p.add_argument("--position-error", type=_non_negative, metavar="M",
+                   help="sigma of the wheel-position error of the pulses (m, default 0)")
+    p.add_argument("--seed", type=int, help="random seed of the signal (default 0)")
+    p.add_argument("--no-speed", action="store_true",
+                   help="leave the train speed out of the recording's metadata")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/passby"), metavar="DIR",
+                   help="output folder (default railfem-output/passby)")
+
+
+def _passby_run(args) -> int:
+    from .passbyjob import read_config, run_passby
+
+    opts = read_config(args.config) if args.config else {}
+    given = {"preset": args.preset, "model": args.model, "train": args.train,
+             "speed_kmh": args.speed_kmh, "roughness": args.roughness, "wheel": args.wheel,
+             "f_low": args.f_low, "f_high": args.f_high, "form": args.form,
+             "output": args.output, "contact_filter": args.contact_filter,
+             "max_distance": args.max_distance, "sample_rate": args.sample_rate,
+             "noise_fraction": args.noise_fraction, "position_error": args.position_error,
+             "seed": args.seed}
+    opts.update({k: (str(v) if isinstance(v, Path) else v) for k, v in given.items()
+                 if v is not None})
+    for flag, key, value in ((args.no_interaction, "interaction", False),
+                             (args.continuous, "continuous", True), (args.signal, "signal", True),
+                             (args.roughness_hold, "roughness_hold", True),
+                             (args.no_speed, "speed_known", False)):
+        if flag:
+            opts[key] = value
+    s = run_passby(args.out, **opts)
+    sys.stdout.write(f"{s['preset']} track ({s['model']}), {s['train']['n_wheels']} wheels, "
+                     f"{s['speed_m_per_s'] * 3.6:.0f} km/h: {s['runtime_s']['total']:.1f} s\n")
+    for v in s["files"].values():
+        sys.stdout.write(f"wrote {v}\n")
+    return 0
+
+
 # --------------------------------------------------------------- free mobility
 def _frequency_spec(tokens) -> np.ndarray:
     """'F1 F2 ...' (Hz) or one 'FMIN:FMAX:N' (N log-spaced frequencies)."""
@@ -391,6 +463,8 @@ COMMANDS = {
     "track": (_track_args, _track_run,
               "supported track of a Table 1 preset: mobilities, EN 15461 decay rates, plots"),
     "tdr": (_tdr_args, _tdr_run, "track decay rate from measured or simulated data"),
+    "passby": (_passby_args, _passby_run,
+               "train pass-by: rail vibration from roughness, band levels, time signal"),
 }
 
 

@@ -342,6 +342,24 @@ def plot_along_rail(x, values, labels=None, *, ax=None, ylabel: str = "Level (dB
     return ax
 
 
+# ------------------------------------------------------------------------ pass-by
+def plot_passby_levels(position, levels, labels=None, *, ax=None,
+                       ylabel: str = "Band velocity level (dB re 1e-9 m/s)"):
+    """Band levels (dB) at the sensor against the train position; position (nx,), levels
+    (nx,) or (nx, nc) (one column per band)."""
+    x = _vector(position, "position")
+    v = _columns(levels, x.size, "levels", "position")
+    names = _labels(labels, v.shape[1])
+    ax = _axes(ax, figsize=(8.0, 4.8))
+    for j, name in enumerate(names):
+        ax.plot(x, v[:, j], label=name, linewidth=0.8)
+    ax.set_xlabel("Leading-wheel position relative to the sensor (m)")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, alpha=0.3)
+    _legend(ax)
+    return ax
+
+
 # -------------------------------------------------------------------- convergence
 def convergence_slope(h, errors) -> float:
     """Least-squares slope of log(error) against log(h) over positive finite points."""
@@ -457,6 +475,6 @@ def plot_band_residual(centres, residual, labels=None, *, ylabel: str = "Model -
 __all__ = [
     "MAX_ATTENUATION", "convergence_slope", "nominal_band_label", "plot_along_rail",
     "plot_band_overlay", "plot_band_residual", "plot_band_values", "plot_convergence",
-    "plot_dispersion", "plot_dispersion_k", "plot_magnitude_phase", "propagating_mask",
-    "save_figure",
+    "plot_dispersion", "plot_dispersion_k", "plot_magnitude_phase", "plot_passby_levels",
+    "propagating_mask", "save_figure",
 ]

@@ -82,7 +82,55 @@ def check_free_point_100hz(y):
     assert abs(y / y_eb - 1) < 0.02
 
 
+def check_passby_simplified_1khz(level_db):
+    """METHOD.md section 8 formula evaluated here with the Timoshenko beam on a continuous
+    support (nominal 60E1 constants) and beta from EN 15461: v^2 = <w^2 |a r|^2 /
+    |a + a_c + a_w|^2>_band N / (beta L), N = 24 wheels, L the averaging length
+    (train 116.6 m + 2 x 42 m + one 0.1 m step), default roughness 10 lg(lambda/10 mm) dB
+    re 1 um at 60 m/s, no contact filter, rigid 600 kg wheel."""
+    from railfem import beams, contact, supports
+    from railfem.standards import en15461, iec61260
+
+    tp = supports.preset("site")
+    sec = beams.BeamSection(E=E, G=G, area=A_60E1, I=IY_60E1, kappa=KAPPA_60E1, rho=RHO,
+                            eta=tp.eta_r)
+    f = iec61260.ninth_octave_grid(1000, 1000)
+    w = 2 * np.pi * f
+    pos = en15461.hammer_positions(tp.spacing)
+    a = beams.continuous_track_receptance(sec, tp.support, tp.spacing, w, pos)
+    D = en15461.decay_rate(f, 1j * w[:, None] * a, pos).decay_rate[0]
+    beta = D / (20 * np.log10(np.e))
+    V = 216 / 3.6
+    r = 1e-6 * 10 ** (10 * np.log10(V / f / 0.01) / 20)
+    a0 = a[:, 0]
+    total = a0 + 1 / contact.hertz().stiffness - 1 / (w**2 * 600.0)
+    v2 = np.mean(w**2 * np.abs(a0 * r / total) ** 2) * 24 / (beta * (116.6 + 84.0 + 0.1))
+    assert abs(level_db - 10 * np.log10(v2 / 1e-18)) < 1.0
+
+
+def check_contact_stiffness(k):
+    """The circle of equivalent radius R_e = 1/(2 sqrt(A B)) (Hertz circular closed form)
+    for the 920 mm wheel on the 300 mm crown at 78.5 kN; the elliptic solution stays
+    within 1 % of it at this curvature ratio B/A = 1.53."""
+    A, B, P = 1 / (2 * 0.46), 1 / (2 * 0.30), 78.5e3
+    e_star = E / (2 * (1 - NU**2))
+    Re = 1 / (2 * math.sqrt(A * B))
+    a = (3 * P * Re / (4 * e_star)) ** (1 / 3)
+    assert abs(k / (1.5 * P * Re / a**2) - 1) < 0.01
+
+
+def check_recording_duration(t):
+    # leading wheel from 20 m before the sensor to 20 m past it behind the last wheel
+    # (116.6 m behind the first) at 216 km/h, sampled at 25.6 kHz
+    assert abs(t - (116.6 + 40.0) / (216 / 3.6)) < 2 / 25600
+
+
 CHECKS = {
+    "passby_site": {
+        "passby_level_1khz_db": check_passby_simplified_1khz,
+        "contact_stiffness_n_per_m": check_contact_stiffness,
+        "recording_duration_s": check_recording_duration,
+    },
     "free_mobility": {"free_mobility_point_100hz": check_free_point_100hz},
     "site_track": {
         "point_mobility_100hz": check_site_point_100hz,

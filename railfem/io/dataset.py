@@ -288,7 +288,7 @@ def write_dataset(folder: str | os.PathLike, measurement: HammerMeasurement) -> 
 
     Numbers are written so that :func:`read_dataset` gives back the same values. Returns the folder.
     """
-    from railfem.jobs import write_text_atomic
+    from railfem.atomic import write_text_atomic
 
     m = measurement
     folder = Path(folder)

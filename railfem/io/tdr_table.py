@@ -135,7 +135,7 @@ def write_decay_rate_table(path: str | os.PathLike, table: DecayRateTable) -> Pa
 
     Notes are written as text, so they come back as text. Returns the path.
     """
-    from railfem.jobs import write_text_atomic
+    from railfem.atomic import write_text_atomic
 
     note_keys: list[str] = []
     for m in table.metadata:
