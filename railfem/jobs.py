@@ -13,7 +13,6 @@ import json
 import logging
 import os
 import re
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,15 +20,12 @@ from pathlib import Path
 import numpy as np
 
 from . import meshing, section, waveguide, waves
+from .atomic import write_text_atomic  # noqa: F401  (re-exported for the jobs)
 from .materials import Material
 from .profiles import EN13674_60E1, RailProfile, get_profile, polygon_properties
 
 log = logging.getLogger(__name__)
 
-# Permissions of written files: what open() would give (0666 minus the umask).
-_UMASK = os.umask(0)
-os.umask(_UMASK)
-_FILE_MODE = 0o666 & ~_UMASK
 
 #: Frequency (Hz) of the default wave-shape renders: on UIC60 the vertical and lateral
 #: bending, torsion, longitudinal and the first web-bending wave all propagate at 2 kHz
@@ -71,22 +67,6 @@ def progress_logger(what: str, *, min_interval: float = 2.0, logger=None):
                         total, 100.0 * done / total, elapsed, eta)
 
     return progress
-
-
-def write_text_atomic(path, text: str) -> Path:
-    """Write text to ``path`` atomically (parent folders are created)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}-", dir=path.parent)
-    try:
-        os.chmod(tmp, _FILE_MODE)  # mkstemp gives 0600; outputs get the usual mode
-        with os.fdopen(fd, "w", newline="") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
 
 
 def _json_safe(obj):
