@@ -93,7 +93,7 @@ class Rail:
 
 
 @lru_cache(maxsize=4)
-def _mesh(rail: RailSpec):
+def rail_mesh(rail: RailSpec):
     """The mesh file if given, else the shipped mesh of (profile, h) or a new Gmsh mesh."""
     if rail.mesh_file is not None:
         return meshing.load_mesh(rail.mesh_file)
@@ -103,7 +103,7 @@ def _mesh(rail: RailSpec):
 @lru_cache(maxsize=4)
 def wfe_rail(rail: RailSpec, patch_width: float, n_foot_springs: int) -> Rail:
     """The WFE rail of ``rail`` (memoised: a fitter's repeated calls reuse it)."""
-    mesh = _mesh(rail)
+    mesh = rail_mesh(rail)
     guide = waveguide.assemble(mesh, rail.material())
     outputs = {"head": mobility.point(guide, "head_top", label="head"),
                "foot": mobility.point(guide, "foot_sensor", label="foot")}
@@ -116,6 +116,7 @@ def wfe_rail(rail: RailSpec, patch_width: float, n_foot_springs: int) -> Rail:
     return Rail(guide=guide, load=load, outputs=outputs, springs=springs, key=key)
 
 
+@lru_cache(maxsize=8)
 def beam_section(spec_rail: RailSpec) -> beams.BeamSection:
     """Timoshenko vertical-bending section: A, I, kappa from the mesh (railfem.section) or
     the nominal 60E1 catalogue values, with the rail's material (METHOD.md section 3)."""
@@ -126,7 +127,7 @@ def beam_section(spec_rail: RailSpec) -> beams.BeamSection:
                                  kappa=nominal.kappa, rho=m.rho, eta=m.loss_factor)
     from . import section
 
-    sc = section.section_constants(_mesh(spec_rail))
+    sc = section.section_constants(rail_mesh(spec_rail))
     return beams.BeamSection(E=m.E, G=m.G, area=sc.area, I=sc.I_y, kappa=sc.kappa_z,
                              rho=m.rho, eta=m.loss_factor)
 
