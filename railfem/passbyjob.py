@@ -131,7 +131,8 @@ def _check(opts):
                          f"{opts['f_high']} Hz: use at least {2.3 * opts['f_high']:.0f} Hz")
 
 
-def run_passby(out_dir, *, tables: P.RailTables | None = None, mesh=None, **options) -> dict:
+def run_passby(out_dir, *, tables: P.RailTables | None = None, cache=None,
+               **options) -> dict:
     """Simulate a pass-by and write its files (see the module docstring).
 
     options: see DEFAULTS (speed in km/h, frequencies in Hz, lengths in m). tables: rail
@@ -160,7 +161,7 @@ def run_passby(out_dir, *, tables: P.RailTables | None = None, mesh=None, **opti
     hz = contact.hertz(load, wheel_radius=wheels.DEFAULT_WHEEL_RADIUS)
     if tables is None:
         tables = P.rail_tables(tp, f, model=opts["model"], continuous=opts["continuous"],
-                               max_distance=opts["max_distance"], mesh=mesh,
+                               max_distance=opts["max_distance"], cache=cache,
                                progress=progress_logger("rail tables"))
     t_tables = time.perf_counter()
     r = amp * np.sqrt(_filter(opts["contact_filter"], hz, f, speed))

@@ -86,49 +86,52 @@ class RailTables:
         return float(min(-self.response_x[0], self.response_x[-1] - self.period))
 
 
-def rail_tables(track, frequency, *, model: str = "wfe-discrete", step: float = DEFAULT_STEP,
-                max_distance: float = 30.0, continuous: bool = False, mesh=None,
+def rail_tables(track, frequency, *, model: str | None = None, step: float = DEFAULT_STEP,
+                max_distance: float = 30.0, continuous: bool = False, cache=None,
                 progress=None) -> RailTables:
-    """THE adapter to the track model: receptance tables for the pass-by.
+    """THE adapter to the track model: receptance tables for the pass-by, from the model
+    door (railfem.models.receptance).
 
-    track: a Table 1 preset name or supports.TrackPreset. model: a trackjob model.
-    continuous: the 'position-independent rail' switch (the continuous-support
-    counterpart of the model). max_distance: largest force-response separation (m);
-    transfers beyond it are taken as zero (the log says how small they were).
+    track: a railfem.spec.TrackSpec, or a Table 1 preset name. model: overrides the spec's
+    model kind (default: the spec's; 'wfe-discrete' for a preset name). continuous: the
+    'position-independent rail' switch (the continuous-support counterpart of the model,
+    point supports). max_distance: largest force-response separation (m); transfers beyond
+    it are taken as zero (the log says how small they were). cache: the door's kernel cache.
     """
-    from ..jobs import load_or_mesh
-    from ..supports import TrackPreset, preset
-    from ..trackjob import track_receptance
+    from ..models import receptance
+    from ..spec import TrackSpec, preset
 
-    tp = track if isinstance(track, TrackPreset) else preset(track)
+    spec = track if isinstance(track, TrackSpec) else preset(
+        getattr(track, "name", track), model=model or "wfe-discrete")
+    model = model or spec.model
     if model not in CONTINUOUS_OF:
         raise ValueError(f"unknown track model {model!r}; choose one of "
                          f"{', '.join(CONTINUOUS_OF)}")
     if not (step > 0 and max_distance > 0):
         raise ValueError(f"step = {step!r} m and max_distance = {max_distance!r} m must be > 0")
     if continuous:
-        model, period = CONTINUOUS_OF[model], step
+        spec, period = spec.replace(model=CONTINUOUS_OF[model], pad_length=0.0, n_rows=1), step
     else:
-        period = tp.spacing
+        spec, period = spec.replace(model=model), spec.spacing
     n_p = round(period / step)
     if abs(n_p * step - period) > 1e-9 * period:
-        raise ValueError(f"the sleeper spacing {tp.spacing} m is not a whole number of steps "
+        raise ValueError(f"the sleeper spacing {spec.spacing} m is not a whole number of steps "
                          f"{step} m: choose a step that divides it")
     n_s = math.ceil(max_distance / step - 1e-9)
     rx = np.round(np.arange(-n_s, n_s + n_p) * step, 10)
     fx = np.round(np.arange(n_p) * step, 10)
-    mesh = mesh if mesh is not None else load_or_mesh("60E1", 0.01)
     t0 = time.perf_counter()
-    a = track_receptance(model, tp, mesh, frequency, fx, rx, progress=progress)
-    log.info("rail tables %s, %s: %d x %d positions, %d frequencies in %.1f s", tp.name, model,
-             len(rx), len(fx), len(frequency), time.perf_counter() - t0)
+    a = receptance(spec, frequency, fx, rx, outputs=("head", "foot"), cache=cache,
+                   progress=progress)
+    log.info("rail tables %s, %s: %d x %d positions, %d frequencies in %.1f s", spec.name,
+             spec.model, len(rx), len(fx), len(frequency), time.perf_counter() - t0)
     edge = np.abs(a[:, 0, [0, -1], 0]).max(axis=1) / np.abs(a[:, 0, n_s, 0])
     log.info("rail tables: head transfer at +-%.1f m is %.0f dB below the point receptance "
              "at worst (%.0f Hz)", n_s * step, -20 * np.log10(edge.max()),
              frequency[int(np.argmax(edge))])
     return RailTables(frequency=np.asarray(frequency, dtype=float), step=step, period=period,
                       response_x=rx, force_x=fx, receptance=a,
-                      description=f"{tp.name} track, {model}")
+                      description=f"{spec.name} track, {spec.model}")
 
 
 def _grid(x, step: float, what: str) -> np.ndarray:
