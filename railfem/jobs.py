@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 from . import branches, meshing, section, waveguide, waves
-from .atomic import prepare_output_dir, write_text
+from .atomic import (  # noqa: F401  (the job layer's names, re-exported)
+    prepare_output_dir, write_bytes_atomic, write_text, write_text_atomic)
 from .materials import Material
 from .profiles import EN13674_60E1, RailProfile, get_profile, polygon_properties
 
@@ -68,11 +69,6 @@ def progress_logger(what: str, *, min_interval: float = 2.0, logger=None):
                         total, 100.0 * done / total, elapsed, eta)
 
     return progress
-
-
-def write_text_atomic(path, text: str) -> Path:
-    """Write text to ``path`` atomically (parent folders are created): railfem.atomic."""
-    return write_text(path, text)
 
 
 def _json_safe(obj):

@@ -29,7 +29,8 @@ __all__ = [
     "plot_dispersion_k", "plot_branches", "branch_colours", "plot_magnitude_phase",
     "mark_frequencies", "plot_point_mobility", "nominal_band_label", "plot_band_values",
     "plot_decay_rate", "plot_decay_rate_results", "mark_cut_ons", "along_rail_frequencies",
-    "plot_along_rail", "convergence_slope", "plot_convergence",
+    "plot_along_rail", "convergence_slope", "plot_convergence", "plot_band_overlay",
+    "plot_band_residual", "plot_passby_levels",
 ]
 
 _MARKERS = ("o", "s", "^", "v", "D", "<", ">", "p", "h", "*", "X", "P")
@@ -642,6 +643,24 @@ def plot_along_rail(x, values, labels=None, *, ax=None, ylabel: str = "Level (dB
     return ax
 
 
+# ------------------------------------------------------------------------ pass-by
+def plot_passby_levels(position, levels, labels=None, *, ax=None,
+                       ylabel: str = "Band velocity level (dB re 1e-9 m/s)"):
+    """Band levels (dB) at the sensor against the train position; position (nx,), levels
+    (nx,) or (nx, nc) (one column per band)."""
+    x = _vector(position, "position")
+    v = _columns(levels, x.size, "levels", "position")
+    names = _labels(labels, v.shape[1])
+    ax = _axes(ax, figsize=(8.0, 4.8))
+    for j, name in enumerate(names):
+        ax.plot(x, v[:, j], label=name, linewidth=0.8)
+    ax.set_xlabel("Leading-wheel position relative to the sensor (m)")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, alpha=0.3)
+    _legend(ax)
+    return ax
+
+
 # -------------------------------------------------------------------- convergence
 def convergence_slope(h, errors) -> float:
     """Least-squares slope of log(error) against log(h) over positive finite points."""
@@ -677,3 +696,78 @@ def plot_convergence(h, errors, labels=None, *, ax=None, fit: bool = True,
     ax.grid(True, which="both", alpha=0.3)
     _legend(ax)
     return ax
+
+
+# ------------------------------------------------------- model vs measurement, per band
+def _band_centres(centres) -> np.ndarray:
+    centres = _vector(centres, "centres")
+    if np.any(centres <= 0):
+        raise ValueError("centres must be positive band centre frequencies in Hz")
+    return centres
+
+
+def plot_band_overlay(centres, measured, model=None, *, valid=None,
+                      labels=("measured", "model"), ylabel: str = "Decay rate (dB/m)",
+                      ax=None, logy: bool = False):
+    """Measured values per band (markers) over model values (line), e.g. decay rates.
+
+    centres : (nb,) band centres (Hz); measured, model : (nb,) or (nb, nc) (model may be
+    None); valid : bool like ``measured`` — bands that failed their checks (False) are drawn
+    as open markers and named in the legend. Returns the Axes.
+    """
+    centres = _band_centres(centres)
+    meas = _columns(measured, centres.size, "measured", "centres")
+    ok = (np.ones(meas.shape, bool) if valid is None
+          else _columns(valid, centres.size, "valid", "centres", dtype=bool))
+    if ok.shape != meas.shape:
+        raise ValueError(f"valid has shape {ok.shape}, measured {meas.shape}; give one flag per value")
+    mod = None if model is None else _columns(model, centres.size, "model", "centres")
+    names = list(labels) if not isinstance(labels, str) else [labels, None]
+    ax = _axes(ax)
+    for j in range(meas.shape[1]):
+        mk = _MARKERS[j % len(_MARKERS)]
+        suffix = f" {j + 1}" if meas.shape[1] > 1 else ""
+        line, = ax.plot(centres[ok[:, j]], meas[ok[:, j], j], mk, markersize=5,
+                        label=f"{names[0]}{suffix}")
+        if (~ok[:, j]).any():
+            ax.plot(centres[~ok[:, j]], meas[~ok[:, j], j], mk, markersize=5,
+                    markerfacecolor="none", color=line.get_color(),
+                    label=f"{names[0]}{suffix}, band failed its checks")
+    if mod is not None:
+        for j in range(mod.shape[1]):
+            suffix = f" {j + 1}" if mod.shape[1] > 1 else ""
+            ax.plot(centres, mod[:, j], "-", label=f"{names[1] or 'model'}{suffix}")
+    return _band_axes(ax, centres, ylabel, logy=logy)
+
+
+def _band_axes(ax, centres, ylabel: str, *, logy: bool = False, grid_axis: str = "both"):
+    """Log band axis with nominal labels, value label, grid and legend; returns ``ax``."""
+    ax.set_xscale("log")
+    if logy:
+        ax.set_yscale("log")
+        _plain_log_labels(ax.yaxis)
+    _band_ticks(ax, centres)
+    ax.set_xlabel("One-third-octave band centre frequency (Hz)")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which="major", axis=grid_axis, alpha=0.3)
+    _legend(ax)
+    return ax
+
+
+def plot_band_residual(centres, residual, labels=None, *, ylabel: str = "Model - measurement (dB)",
+                       ax=None):
+    """Residual per band as bars around a zero line; (nb,) or (nb, nc) side by side.
+
+    NaN residuals (bands not compared) leave a gap. Returns the Axes.
+    """
+    centres = _band_centres(centres)
+    r = _columns(residual, centres.size, "residual", "centres")
+    names = _labels(labels, r.shape[1])
+    ax = _axes(ax)
+    n = r.shape[1]
+    width = 2 ** (1 / 3 / (n + 1))  # bars share one third of an octave, in log space
+    for j, name in enumerate(names):
+        left = centres * width ** (j - n / 2)
+        ax.bar(left, r[:, j], width=left * (width - 1), align="edge", label=name)
+    ax.axhline(0.0, color="black", linewidth=0.8)
+    return _band_axes(ax, centres, ylabel, grid_axis="y")
