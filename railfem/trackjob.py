@@ -111,6 +111,38 @@ def rail_pad_peak(frequency, point_mobility, spec: TrackSpec, rail_mass: float,
     return float(frequency[i])
 
 
+def resonance_marks(frequency, point_mobility, spec: TrackSpec, rail_mass: float,
+                    f_pinned_pinned: float) -> dict:
+    """The named resonances of the point mobility (Hz): sleeper on ballast (largest |Y|
+    within a factor 2 of sqrt(k_b / (m_s + m' d)) / 2 pi: the rail span and sleeper mass on
+    the ballast), rail on pad (:func:`rail_pad_peak`) and the pinned-pinned frequency of
+    the beam between supports (computed, not searched)."""
+    f = np.asarray(frequency, dtype=float)
+    s = spec.support
+    marks = {}
+    if s.kb > 0 and np.isfinite(s.kb):
+        f0 = np.sqrt(s.kb / (s.ms + rail_mass * spec.spacing)) / (2 * np.pi)
+        band = (f > f0 / 2) & (f < 2 * f0)
+        if band.any():
+            marks["sleeper on ballast"] = float(f[np.argmax(np.abs(point_mobility) * band)])
+    marks["rail on pad"] = rail_pad_peak(f, point_mobility, spec, rail_mass, f_pinned_pinned)
+    marks["pinned-pinned"] = float(f_pinned_pinned)
+    return {k: v for k, v in marks.items() if np.isfinite(v)}
+
+
+def _cut_ons(spec: TrackSpec, f) -> dict:
+    """Free-rail cut-ons of the waves a vertical load excites, inside the computed range
+    (the decay-rate plot names them: the decay rate spikes just above each)."""
+    if not spec.model.startswith("wfe"):
+        return {}
+    from .branches import cut_ons
+    from .waveguide import assemble
+
+    guide = assemble(models.rail_mesh(spec.rail), spec.rail.material())
+    return {c.name: c.frequency for c in cut_ons(guide, f[0], f[-1],
+                                                  families=("symmetric",))}
+
+
 def run_track(spec: TrackSpec, out_dir, *, job: JobSettings | None = None, cache=None,
               progress=None) -> dict:
     """Model the track ``spec`` and write mobilities, decay rates, plots and run.json."""
@@ -133,10 +165,12 @@ def run_track(spec: TrackSpec, out_dir, *, job: JobSettings | None = None, cache
                               progress=progress or progress_logger(f"track {spec.model}"))
     Y = 1j * 2 * np.pi * f[:, None, None, None] * alpha
     transfer = Y[:, :, 0, : len(pos)]  # (nf, 2, n_pos): sensor response, hammer moves
-    paths = _write_outputs(out, spec, f, pos, hammer, xs, transfer,
-                           Y[:, :, 1:, len(pos):], span_fx, along_x, job.along_frequencies)
     bs = models.beam_section(spec.rail)
     rail_mass, f_pp = bs.mass_per_length, beams.pinned_pinned_frequency(bs, d)
+    marks = resonance_marks(f, transfer[:, 0, 0], spec, rail_mass, f_pp)
+    paths = _write_outputs(out, spec, f, pos, hammer, xs, transfer,
+                           Y[:, :, 1:, len(pos):], span_fx, along_x, job.along_frequencies,
+                           marks, _cut_ons(spec, f))
     mesh = models.rail_mesh(spec.rail)
     summary = {
         "command": "track", "railfem_version": __version__,
@@ -148,6 +182,7 @@ def run_track(spec: TrackSpec, out_dir, *, job: JobSettings | None = None, cache
         "frequency_hz": f.tolist(),
         "rail_pad_peak_hz": {o: rail_pad_peak(f, transfer[:, j, 0], spec, rail_mass, f_pp)
                              for j, o in enumerate(OUTPUTS)},
+        "resonances_hz": marks,
         "runtime_s": time.perf_counter() - t0,
         "files": {k: str(v) for k, v in paths.items()},
         "config": {"spec": spec_to_dict(spec),
@@ -162,7 +197,7 @@ def run_track(spec: TrackSpec, out_dir, *, job: JobSettings | None = None, cache
 
 
 def _write_outputs(out, spec, f, pos, hammer_x, xs, transfer, along, span_fx, along_x,
-                   along_frequencies) -> dict:
+                   along_frequencies, marks, cut_on) -> dict:
     from . import plotting
     from .frf import FRF
     from .frfio import write_frf_csv
@@ -191,24 +226,26 @@ def _write_outputs(out, spec, f, pos, hammer_x, xs, transfer, along, span_fx, al
                           for xr, z in zip(along_x, v)]
     paths["along_csv"] = write_text_atomic(out / "along_rail.csv", "\n".join(lines) + "\n")
 
-    title = f"{spec.name} track, {spec.model}"
-    ax_mag, _ = plotting.plot_magnitude_phase(f, transfer[:, :, 0],
-                                              [f"point, {o}" for o in OUTPUTS])
-    ax_mag.set_title(title)
+    title = f"{spec.name} track, {spec.model}: vertical hammer, vertical response"
+    ax_mag, _ = plotting.plot_point_mobility(f, transfer[:, :, 0],
+                                             [f"point, {o} sensor" for o in OUTPUTS],
+                                             marks=marks)
+    ax_mag.set_title(title, fontsize="medium")
     paths["mobility_png"] = plotting.save_figure(ax_mag.figure, out / "point_mobility.png")
-    ax = plotting.plot_band_values(results[0].frequency,
-                                   np.column_stack([r.decay_rate for r in results]),
-                                   [f"{o} sensor" for o in OUTPUTS])
-    ax.set_title(title)
+    ax = plotting.plot_decay_rate_results(results, [f"{o} sensor" for o in OUTPUTS],
+                                          direction="vertical", cut_on=cut_on)
+    ax.set_title(title, fontsize="medium")
     paths["decay_png"] = plotting.save_figure(ax.figure, out / "decay_rate.png")
     k_mid = int(np.argmin(np.abs(span_fx - xs)))
-    cols, labels = [], []
-    for fa in along_frequencies:
-        i = int(np.argmin(np.abs(np.log(f / fa))))
-        cols.append(20 * np.log10(np.abs(along[i, 0, :, k_mid])))
-        labels.append(f"{f[i]:.0f} Hz")
-    ax = plotting.plot_along_rail(along_x, np.column_stack(cols), labels,
-                                  ylabel="Head mobility level (dB re 1 m/s/N)")
-    ax.set_title(f"{title}: force at x = {span_fx[k_mid]:g} m")
+    idx = plotting.along_rail_frequencies(f, along_frequencies)
+    cols = [20 * np.log10(np.abs(along[i, 0, :, k_mid])) for i in idx]
+    n = int(np.ceil(np.abs(along_x).max() / spec.spacing))
+    ax = plotting.plot_along_rail(along_x, np.column_stack(cols),
+                                  [f"{f[i]:.0f} Hz" for i in idx],
+                                  ylabel="Head mobility level (dB re 1 m/s/N)",
+                                  x_force=span_fx[k_mid],
+                                  supports=np.arange(-n, n + 1) * spec.spacing)
+    ax.set_title(f"{spec.name} track, {spec.model}: force at x = {span_fx[k_mid]:g} m "
+                 "(mid-span)", fontsize="medium")
     paths["along_png"] = plotting.save_figure(ax.figure, out / "along_rail.png")
     return paths
