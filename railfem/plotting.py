@@ -384,3 +384,35 @@ __all__ = [
     "plot_band_values", "plot_convergence", "plot_dispersion", "plot_dispersion_k",
     "plot_magnitude_phase", "propagating_mask", "save_figure",
 ]
+
+
+# ------------------------------------------------------------- pass-by decay rates
+def plot_decay_rate_estimates(centres, estimates: dict, *, ax=None,
+                              ylabel: str = "Decay rate (dB/m)"):
+    """Decay rates per one-third-octave band from several estimators, with error bars.
+
+    ``estimates`` maps a label to ``(values, errors)``, each (nb,) in dB/m (errors may be
+    None); NaN values (failed bands) leave gaps. Log value axis, nominal band labels.
+    """
+    centres = _vector(centres, "centres")
+    if np.any(centres <= 0):
+        raise ValueError("centres must be positive band centre frequencies in Hz")
+    ax = _axes(ax)
+    n = max(len(estimates), 1)
+    for j, (label, (values, errors)) in enumerate(estimates.items()):
+        v = _columns(values, centres.size, f"values of {label!r}", "centres")[:, 0]
+        e = None if errors is None else np.nan_to_num(
+            _columns(errors, centres.size, f"errors of {label!r}", "centres")[:, 0])
+        shift = 2.0 ** ((j - (n - 1) / 2) / 24)  # side by side within the band
+        ax.errorbar(centres * shift, np.where(v > 0, v, np.nan), yerr=e,
+                    marker=_MARKERS[j % len(_MARKERS)], markersize=4, capsize=2,
+                    label=str(label))
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    _plain_log_labels(ax.yaxis)
+    _band_ticks(ax, centres)
+    ax.set_xlabel("One-third-octave band centre frequency (Hz)")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which="both", alpha=0.3)
+    _legend(ax)
+    return ax

@@ -1,0 +1,1 @@
+"""Model-free estimators: the same code for measured and simulated data."""

@@ -1,0 +1,1 @@
+"""Readers and writers at the edge of railfem (files in, objects out)."""
