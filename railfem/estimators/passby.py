@@ -16,11 +16,13 @@ Steps, per recording: wheels and speed from the low-passed signal
   and once per wheel (for the scatter over wheels). A band whose filter smears the power
   over more than ``L1/2`` (rms, in train travel: low bands at high speed) is flagged
   'smeared': the smear model holds for noise broadband within the band and is no longer
-  trusted when the smear is that long;
+  trusted when the smear is that long. A ratio within three standard errors (scatter of
+  the per-wheel ratios) of the no-decay ratio is 'not_resolved': stationary vibration;
 * **slope fitting** — band levels in blocks at 0.1 m steps of train travel behind each
   wheel, a straight line over ``L3`` (``L3_low`` = 0.6 m below ``l3_split_hz``, where the
   decay is high, ``L3_high`` = 1.2 m above), ``D = −slope``; averaged over wheels and
-  pass-bys. The same incoherent-wheel model predicts what the fit would return on this
+  pass-bys; a mean within three standard errors of zero is 'not_resolved'. The same
+  incoherent-wheel model predicts what the fit would return on this
   train if the decay rate were the estimate; a predicted bias beyond ``max_slope_bias``
   (other wheels inside the fit window when the decay is low and wheels are close, filter
   smear in low bands at high speed) flags the band instead of reporting a biased value.
@@ -48,6 +50,8 @@ __all__ = ["PassbyOptions", "DecayEstimate", "PassbyDecayRate", "passby_decay_ra
            "slope_fit", "slope_model_bias"]
 
 log = logging.getLogger(__name__)
+
+BETA_FLAT = 1e-6  # 1/m: the "no decay" limit of the energy ratio (8.7e-6 dB/m)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -121,7 +125,8 @@ class DecayEstimate:
     n_passbys: np.ndarray
     """Number of pass-bys with an accepted value."""
     per_passby: np.ndarray
-    """(n_recordings, n_bands) each pass-by's accepted value, dB/m."""
+    """(n_recordings, n_bands) each pass-by's value, dB/m: energy iteration, the pass-by's
+    accepted root (NaN if rejected); slope fitting, the mean over the pass-by's wheels."""
     per_passby_status: tuple[tuple[str, ...], ...]
     """Status per recording and band."""
 
@@ -203,6 +208,13 @@ def _one_band(rec: Recording, w: WheelPassage, centre: float, opts: PassbyOption
     smear = float(np.sqrt(np.sum(k * tau**2)))  # rms smear of the band power, m of travel
     if pooled.status == "ok" and smear > opts.l1 / 2:
         pooled = _replace(pooled, decay_rate=float("nan"), status="smeared")
+    # stationary vibration (no decay) gives the ratio of beta -> 0; a ratio within three
+    # standard errors (from the scatter over wheels) of it is not a measured decay
+    ratios = n * e1 / e2
+    se = float(np.std(ratios, ddof=1) / math.sqrt(n)) if n > 1 else math.inf
+    r_flat = energy_ratio(BETA_FLAT, w.positions, opts.l1, s_a, s_b, tau, k)
+    if pooled.status == "ok" and float(e1.sum() / e2) - r_flat < 3 * se:
+        pooled = _replace(pooled, decay_rate=float("nan"), status="not_resolved")
     per_wheel = []
     for m in range(n):
         root = solve_energy_ratio(
@@ -215,19 +227,12 @@ def _one_band(rec: Recording, w: WheelPassage, centre: float, opts: PassbyOption
     u = _fit_offsets(opts.step, l3)
     slopes = np.array([
         slope_fit(block_levels(be, t + u / v, opts.step / v), u) for t in w.times])
-    d_pass = float(np.nanmean(slopes)) if np.any(np.isfinite(slopes)) else float("nan")
-    if not np.isfinite(d_pass):
-        slope_status = "too_few_points"
-    elif d_pass <= 0:
-        slope_status = "not_resolved"
-    else:
-        bias = slope_model_bias(d_pass, w.positions, opts.step, l3, tau, k)
-        slope_status = "ok" if abs(bias) <= opts.max_slope_bias else "model_bias"
     # band levels along the train for reports
     x = np.arange(math.floor(-opts.l2_margin / opts.step), math.ceil(
         (w.positions[-1] + opts.l2_margin) / opts.step) + 1) * opts.step
     levels = block_levels(be, w.times[0] + x / v, opts.step / v)
-    return pooled, np.array(per_wheel), slopes, d_pass, slope_status, x, levels
+    context = (w.positions, opts.step, l3, tau, k)  # for the model-bias check of the slope fit
+    return pooled, np.array(per_wheel), slopes, context, x, levels
 
 
 def _combine(method: str, per_pass, per_status, per_wheel_values, raw) -> DecayEstimate:
@@ -301,31 +306,26 @@ def passby_decay_rate(recordings, options: PassbyOptions | None = None, *,
     e_stat = [["" for _ in range(nb)] for _ in range(nr)]
     e_raw = np.full((nr, nb), np.nan)
     e_wheel = [[np.array([])] * nb for _ in range(nr)]
-    s_pass = np.full((nr, nb), np.nan)
-    s_stat = [["" for _ in range(nb)] for _ in range(nr)]
-    s_raw = np.full((nr, nb), np.nan)
     s_wheel = [[np.array([])] * nb for _ in range(nr)]
+    s_context = [[None] * nb for _ in range(nr)]
     levels_x, levels = [], []
     for r, (rec, w) in enumerate(zip(recordings, wheels)):
         lv = []
         for b, centre in enumerate(bands.centre):
-            pooled, per_wheel, slopes, d_pass, s_status, x, lev = _one_band(
+            pooled, per_wheel, slopes, context, x, lev = _one_band(
                 rec, w, float(centre), opts)
             e_pass[r, b] = pooled.decay_rate
             e_raw[r, b] = pooled.raw
             e_stat[r][b] = pooled.status
             e_wheel[r][b] = per_wheel
-            s_raw[r, b] = d_pass
-            s_pass[r, b] = d_pass if s_status == "ok" else np.nan
-            s_stat[r][b] = s_status
-            s_wheel[r][b] = slopes if s_status == "ok" else np.array([])
+            s_wheel[r][b] = slopes
+            s_context[r][b] = context
             lv.append(lev)
         levels_x.append(x)
         levels.append(np.array(lv))
         log.info("%s: bands done", rec.name or f"recording {r}")
     energy = _combine("energy iteration", e_pass, e_stat, e_wheel, _nanmean(e_raw))
-    slope = _combine("slope fitting", s_pass, s_stat, s_wheel, _nanmean(s_raw))
-    slope = _slope_average(slope, s_wheel)
+    slope = _slope_estimate(s_wheel, s_context, opts)
     return PassbyDecayRate(bands=bands, energy=energy, slope=slope, wheels=wheels,
                            names=tuple(r.name for r in recordings),
                            levels_x=tuple(levels_x), levels=tuple(levels), options=opts)
@@ -340,23 +340,50 @@ def _nanmean(values: np.ndarray) -> np.ndarray:
     return np.where(count > 0, total / np.maximum(count, 1), np.nan)
 
 
-def _slope_average(est: DecayEstimate, per_wheel) -> DecayEstimate:
-    """METHOD.md §6 averages the slopes over all wheels of all (accepted) pass-bys; a mean
-    within two standard errors of zero is not a measured decay (status 'not_resolved')."""
-    value = est.decay_rate.copy()
-    status = list(est.status)
-    for b in range(value.size):
-        v = np.concatenate([np.asarray(per_wheel[r][b], dtype=float)
-                            for r in range(len(per_wheel))])
-        v = v[np.isfinite(v)]
-        if not np.isfinite(value[b]) or v.size == 0:
-            continue
-        value[b] = v.mean()
-        se = v.std(ddof=1) / math.sqrt(v.size) if v.size > 1 else math.inf
-        if value[b] < 2 * se:
-            status[b] = "not_resolved"
-            value[b] = np.nan
-    return _replace(est, decay_rate=value, status=tuple(status))
+def _slope_estimate(slopes, contexts, opts: PassbyOptions) -> DecayEstimate:
+    """METHOD.md §6: the slopes averaged over all wheels of all pass-bys, then checked.
+
+    A mean within three standard errors of zero is not a measured decay
+    ('not_resolved'); a mean that the incoherent-wheel model says this slope fit would
+    misread by more than ``max_slope_bias`` on any of the pass-bys ('model_bias') is not
+    reported either. ``slopes[r][b]``: per-wheel values; ``contexts[r][b]``: (positions,
+    step, L3, smear positions, smear weights) of recording r in band b.
+    """
+    nr, nb = len(slopes), len(slopes[0])
+    value, raw, status, std_w, n_w, std_p, n_p = [], [], [], [], [], [], []
+    per_pass = np.full((nr, nb), np.nan)
+    per_status = [["" for _ in range(nb)] for _ in range(nr)]
+    for b in range(nb):
+        groups = [np.asarray(slopes[r][b], dtype=float) for r in range(nr)]
+        groups = [g[np.isfinite(g)] for g in groups]
+        v = np.concatenate(groups)
+        for r, g in enumerate(groups):
+            per_pass[r, b] = g.mean() if g.size else np.nan
+        mean = float(v.mean()) if v.size else float("nan")
+        se = float(v.std(ddof=1) / math.sqrt(v.size)) if v.size > 1 else math.inf
+        if v.size < 3:
+            code, codes = "too_few_points", ["too_few_points"] * nr
+        elif not mean > 3 * se:
+            code, codes = "not_resolved", ["not_resolved"] * nr
+        else:
+            bias = [slope_model_bias(mean, *contexts[r][b]) for r in range(nr)]
+            codes = ["ok" if abs(x) <= opts.max_slope_bias else "model_bias" for x in bias]
+            code = "ok" if all(c == "ok" for c in codes) else "model_bias"
+        for r in range(nr):
+            per_status[r][b] = codes[r]
+        status.append(code)
+        raw.append(mean)
+        value.append(mean if code == "ok" else np.nan)
+        std_w.append(v.std(ddof=1) if v.size > 1 else np.nan)
+        n_w.append(int(v.size))
+        finite = per_pass[np.isfinite(per_pass[:, b]), b]
+        n_p.append(int(finite.size))
+        std_p.append(finite.std(ddof=1) if finite.size > 1 else np.nan)
+    return DecayEstimate(method="slope fitting", decay_rate=np.array(value),
+                         raw=np.array(raw), status=tuple(status), std_wheels=np.array(std_w),
+                         n_wheels=np.array(n_w), std_passbys=np.array(std_p),
+                         n_passbys=np.array(n_p), per_passby=per_pass,
+                         per_passby_status=tuple(tuple(x) for x in per_status))
 
 
 def _replace(obj, **changes):
