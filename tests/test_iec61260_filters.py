@@ -73,7 +73,8 @@ def test_every_band_meets_class1_mask_and_bandwidth(fs):
 
 def test_mask_check_rejects_a_filter_below_class1():
     # negative control: a single pass of a 4th-order band-pass (2nd-order prototype) is
-    # only ~14 dB down one octave out (class 1 needs 16.6 dB): the check must see it
+    # only ~14 dB down at the G^1 breakpoint 1.294 f_m (class 1 needs 16.6 dB): the check
+    # must see it
     fs, c = 25600.0, 1000.0
     lo, hi = band_edges(c)
     sos = signal.butter(2, [lo, hi], btype="bandpass", fs=fs, output="sos")
