@@ -21,7 +21,8 @@ Steps, per recording: wheels and speed from the low-passed signal
 * **slope fitting** — band levels in blocks at 0.1 m steps of train travel behind each
   wheel, a straight line over ``L3`` (``L3_low`` = 0.6 m below ``l3_split_hz``, where the
   decay is high, ``L3_high`` = 1.2 m above), ``D = −slope``; averaged over wheels and
-  pass-bys; a mean less than ``slope_min_se`` (4) standard errors from zero — a
+  pass-bys. Blocks with a bandwidth-time product below 1 (low bands at speed) are
+  'low_bt'; a mean less than ``slope_min_se`` (4) standard errors from zero — a
   relative standard error above 25 % — is 'not_resolved'. The same
   incoherent-wheel model predicts what the fit would return on this
   train if the decay rate were the estimate; a predicted bias beyond ``max_slope_bias``
@@ -84,12 +85,17 @@ class PassbyOptions:
     """Energy roots whose condition number |d ln β / d ln ratio| exceeds this are rejected."""
     max_slope_bias: float = 0.2
     """Slope-fit bands whose model-predicted relative bias exceeds this are rejected."""
+    min_block_bt: float = 1.0
+    """Slope fitting needs level blocks of at least this bandwidth-time product
+    (bandwidth x step / speed); below it block levels scatter by more than ~4 dB and the
+    few wheels that pass the resolution test are mostly upward fluctuations."""
     slope_min_se: float = 4.0
     """Slope-fit means fewer standard errors (over wheels) from zero are 'not_resolved'."""
 
     def __post_init__(self) -> None:
         for name in ("f_low", "f_high", "l1", "l2_margin", "step", "l3_low", "l3_high",
-                     "l3_split_hz", "kappa_max", "max_slope_bias", "slope_min_se"):
+                     "l3_split_hz", "kappa_max", "max_slope_bias", "slope_min_se",
+                     "min_block_bt"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ValueError(f"PassbyOptions.{name} must be a positive number, got {v!r}")
@@ -241,7 +247,8 @@ def _one_band(rec: Recording, w: WheelPassage, centre: float, opts: PassbyOption
     end = block_levels(be, w.times + l3 / v, opts.step / v)
     headroom = float(np.nanmean(end) - np.nanpercentile(levels, 5))
     context = (w.positions, opts.step, l3, tau, k)  # for the model-bias check of the slope fit
-    return pooled, np.array(per_wheel), slopes, (context, headroom), x, levels
+    bt = (be.centre * (10 ** 0.05 - 10 ** -0.05)) * opts.step / v  # band x block duration
+    return pooled, np.array(per_wheel), slopes, (context, headroom, bt), x, levels
 
 
 def _combine(method: str, per_pass, per_status, per_wheel_values, raw) -> DecayEstimate:
@@ -373,6 +380,8 @@ def _slope_estimate(slopes, contexts, opts: PassbyOptions) -> DecayEstimate:
         se = float(v.std(ddof=1) / math.sqrt(v.size)) if v.size > 1 else math.inf
         if v.size < 3:
             code, codes = "too_few_points", ["too_few_points"] * nr
+        elif min(contexts[r][b][2] for r in range(nr)) < opts.min_block_bt:
+            code, codes = "low_bt", ["low_bt"] * nr
         elif not mean > opts.slope_min_se * se:
             code, codes = "not_resolved", ["not_resolved"] * nr
         else:
