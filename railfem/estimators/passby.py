@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -156,7 +156,6 @@ class PassbyDecayRate:
     levels: tuple[np.ndarray, ...]
     """Per recording, (n_bands, n_x) band levels in dB re 1 (SI unit)^2 at ``levels_x``."""
     options: PassbyOptions
-    log: tuple[str, ...] = field(default=())
 
 
 # ---------------------------------------------------------------------------- slope
@@ -218,14 +217,14 @@ def _one_band(rec: Recording, w: WheelPassage, centre: float, opts: PassbyOption
         plausible=opts.plausible, kappa_max=opts.kappa_max)
     smear = float(np.sqrt(np.sum(k * tau**2)))  # rms smear of the band power, m of travel
     if pooled.status == "ok" and smear > opts.l1 / 2:
-        pooled = _replace(pooled, decay_rate=float("nan"), status="smeared")
+        pooled = replace(pooled, decay_rate=float("nan"), status="smeared")
     # stationary vibration (no decay) gives the ratio of beta -> 0; a ratio within three
     # standard errors (from the scatter over wheels) of it is not a measured decay
     ratios = n * e1 / e2
     se = float(np.std(ratios, ddof=1) / math.sqrt(n)) if n > 1 else math.inf
     r_flat = energy_ratio(BETA_FLAT, w.positions, opts.l1, s_a, s_b, tau, k)
     if pooled.status == "ok" and float(e1.sum() / e2) - r_flat < 3 * se:
-        pooled = _replace(pooled, decay_rate=float("nan"), status="not_resolved")
+        pooled = replace(pooled, decay_rate=float("nan"), status="not_resolved")
     per_wheel = []
     for m in range(n):
         root = solve_energy_ratio(
@@ -406,9 +405,3 @@ def _slope_estimate(slopes, contexts, opts: PassbyOptions) -> DecayEstimate:
                          n_wheels=np.array(n_w), std_passbys=np.array(std_p),
                          n_passbys=np.array(n_p), per_passby=per_pass,
                          per_passby_status=tuple(tuple(x) for x in per_status))
-
-
-def _replace(obj, **changes):
-    from dataclasses import replace
-
-    return replace(obj, **changes)
