@@ -72,6 +72,20 @@ def write_bytes(path, data: bytes) -> Path:
     return Path(path)
 
 
+def write_atomic(path, write, *, binary: bool = False) -> Path:
+    """Call ``write(fh)`` on a temporary file next to ``path`` and move it into place."""
+    with atomic_path(path) as tmp:
+        with open(tmp, "wb") if binary else open(tmp, "w", newline="",
+                                                   encoding="utf-8") as fh:
+            write(fh)
+    return Path(path)
+
+
+# the names the job layer has always used
+write_text_atomic = write_text
+write_bytes_atomic = write_bytes
+
+
 def _alive(pid: int) -> bool:
     if pid == os.getpid():
         return True

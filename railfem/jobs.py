@@ -19,8 +19,9 @@ from pathlib import Path
 
 import numpy as np
 
-from . import meshing, section, waveguide, waves
-from .atomic import prepare_output_dir, write_text
+from . import branches, meshing, section, waveguide, waves
+from .atomic import (  # noqa: F401  (the job layer's names, re-exported)
+    prepare_output_dir, write_bytes_atomic, write_text, write_text_atomic)
 from .materials import Material
 from .profiles import EN13674_60E1, RailProfile, get_profile, polygon_properties
 
@@ -36,11 +37,12 @@ DISPERSION_CSV_HEADER = """\
 # railfem free-rail dispersion
 # one row per wave: time dependence exp(+i omega t), wave exp(-i k x)
 # frequency_hz : frequency f = omega / (2 pi) in Hz
-# wave         : wave index at this frequency (k(omega) runs: sorted by |k|; omega(k) runs:
-#                mode number at this k, ascending frequency)
+# wave         : k(omega) runs: wave index at this frequency, sorted by |k|; omega(k) runs:
+#                branch number (railfem.branches: modes followed along k by their shapes)
 # family       : mirror-symmetry family: symmetric (vertical, longitudinal, foot flapping)
 #                or antisymmetric (lateral, torsion, web bending)
-# label        : wave type from the mode shape (railfem.labels)
+# label        : wave type from the mode shape (railfem.labels); omega(k) runs: one type
+#                per branch
 # k_re, k_im   : real and imaginary part of the wavenumber k in rad/m; k(omega) runs list
 #                the positive-going waves (Im k <= 0: decaying towards +x)
 # propagating  : 1 when |Im k| <= {max_att} |Re k| (railfem.plotting.MAX_ATTENUATION)
@@ -67,11 +69,6 @@ def progress_logger(what: str, *, min_interval: float = 2.0, logger=None):
                         total, 100.0 * done / total, elapsed, eta)
 
     return progress
-
-
-def write_text_atomic(path, text: str) -> Path:
-    """Write text to ``path`` atomically (parent folders are created): railfem.atomic."""
-    return write_text(path, text)
 
 
 def _json_safe(obj):
@@ -328,29 +325,20 @@ def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=Non
         disp = waves.solve(guide, f, method=method, n_waves=n_waves,
                            progress=progress or progress_logger("dispersion k(omega)"))
         rows = _dispersion_rows_k_of_omega(disp, MAX_ATTENUATION)
-        ax = plotting.plot_dispersion(disp.frequency, disp.k, disp.label)
+        # the plot follows the propagating waves by their shapes, which waves.solve does
+        # not return: a second pass of about the cost of the solve
+        br = branches.k_of_omega(guide, np.unique(f), method=method, n_waves=n_waves,
+                                 progress=progress_logger("dispersion branches"))
     else:
         k = np.atleast_1d(np.asarray(k_values, dtype=float))
         if np.any(~np.isfinite(k)) or np.any(k < 0):
             raise ValueError(f"wavenumbers must be finite and >= 0 rad/m, got {k[:3]}...")
-        prog = progress or progress_logger("dispersion omega(k)")
-        freqs = {fam: np.zeros((len(k), n_modes)) for fam in waveguide.FAMILIES}
-        labs = {fam: np.empty((len(k), n_modes), dtype=object) for fam in waveguide.FAMILIES}
-        for i, kk in enumerate(k):
-            res = waves.omega_of_k(guide, [kk], n_modes=n_modes)
-            for fam, (fr, lb) in res.items():
-                freqs[fam][i], labs[fam][i] = fr[0], lb[0]
-            prog(i + 1, len(k))
-        rows = [(freqs[fam][i, j], j, fam, labs[fam][i, j], kk, 0.0, 1)
-                for i, kk in enumerate(k) for fam in waveguide.FAMILIES for j in range(n_modes)]
-        rows.sort(key=lambda r: (r[4], r[0]))
-        all_f = np.hstack([freqs[fam] for fam in waveguide.FAMILIES])
-        names = []
-        for fam in waveguide.FAMILIES:
-            for j in range(n_modes):
-                vals, counts = np.unique(labs[fam][:, j].astype(str), return_counts=True)
-                names.append(f"{vals[np.argmax(counts)]} ({fam[:4]}.)")
-        ax = plotting.plot_dispersion_k(k, all_f, names)
+        br = branches.omega_of_k(guide, np.unique(k), n_modes=n_modes,
+                                 progress=progress or progress_logger("dispersion omega(k)"))
+        ok = br.present()
+        rows = sorted(((br.frequency[i, b], b, br.family[b], br.label[b], br.k[i, b].real,
+                        0.0, 1) for i, b in zip(*np.nonzero(ok))), key=lambda r: (r[4], r[0]))
+    ax = plotting.plot_branches(br)
     ax.set_title(f"{mesh.profile.name}, h = {mesh.h * 1e3:g} mm, {guide.n_dofs} DOFs")
     paths["csv"] = write_text_atomic(out / "dispersion.csv", _csv_text(header, columns, rows))
     paths["png"] = plotting.save_figure(ax, out / "dispersion.png")
@@ -363,8 +351,8 @@ def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=Non
             log.warning("no propagating wave at %g Hz: nothing to render", render_frequency)
         for i, ws in enumerate(shapes[:max_renders]):
             name = f"wave_{i:02d}_{ws.family}_{_slug(ws.label)}.png"
-            title = (f"{ws.label} ({ws.family[:4]}.), {ws.frequency:g} Hz, "
-                     f"k = {ws.k.real:.3g} rad/m")
+            title = (f"{branches.type_in_words(ws.label)} ({ws.family} family)\n"
+                     f"{ws.frequency:g} Hz, k = {ws.k.real:.3g} rad/m")
             renders.append(rendering.render_wave_shape(guide.nodes, guide.elements, ws.shape,
                                                        out / "renders" / name, title=title,
                                                        window_size=window_size))

@@ -103,7 +103,7 @@ def _plot(res: PassbyDecayRate, path: Path) -> Path:
 
 def run_tdr_passby(paths, out_dir, options: PassbyOptions | None = None, *,
                    speed: float | None = None, axle_spacing: float | None = None,
-                   axle_positions=None) -> dict:
+                   axle_positions=None, channel: str | None = None) -> dict:
     """Read the recordings, estimate the decay rates and write the outputs; returns the
     run summary (also written as run.json)."""
     t0 = time.perf_counter()
@@ -112,7 +112,8 @@ def run_tdr_passby(paths, out_dir, options: PassbyOptions | None = None, *,
     if not paths:
         raise ValueError("give at least one recording (.npz or .wav with a .toml/.json "
                          "sidecar)")
-    recordings = [read_recording(p) for p in paths]  # all input checks before computing
+    # all input checks before computing
+    recordings = [read_recording(p, channel=channel) for p in paths]
     units = {r.unit for r in recordings}
     if len(units) > 1:
         raise ValueError(f"the recordings mix quantities ({sorted(units)}); estimate "
@@ -131,6 +132,7 @@ def run_tdr_passby(paths, out_dir, options: PassbyOptions | None = None, *,
     summary = {
         "command": COMMAND,
         "recordings": [str(p) for p in paths],
+        "channel": channel,
         "overrides": {"speed_m_s": speed, "axle_spacing_m": axle_spacing,
                       "axle_positions_m": axle_positions},
         "options": {k: getattr(opts, k) for k in opts.__dataclass_fields__},

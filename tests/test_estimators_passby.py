@@ -302,3 +302,23 @@ def test_plot_decay_rate_estimates_returns_axes():
     assert len(ax.get_lines()) >= 2 and ax.get_yscale() == "log"
     with pytest.raises(ValueError, match="match centres"):
         plot_decay_rate_estimates(c, {"x": ([1, 2], None)})
+
+
+def test_reads_a_railfem_passby_recording_one_channel_at_a_time(tmp_path):
+    from railfem import recording as rr
+    from railfem.io.recording import read_recording
+
+    x, _ = synth(speed=20.0, axles=SEPARATED[:4], decay={1000: 3.0}, seed=7)
+    sig = np.column_stack([x, 2 * x])
+    paths = rr.write_recording(
+        tmp_path / "pb", rr.Recording(signal=sig, sample_rate=FS, speed=20.0,
+                                      channels=(rr.Channel(name="foot"),
+                                                rr.Channel(name="head", location="head"))),
+        data_format="npz")
+    with pytest.raises(ValueError, match="choose one"):
+        read_recording(paths["data"])
+    rec = read_recording(paths["data"], channel="head")
+    np.testing.assert_allclose(rec.samples, 2 * x, rtol=1e-6, atol=1e-6)  # float32 file
+    assert (rec.fs, rec.speed, rec.sensor, rec.quantity) == (FS, 20.0, "head", "acceleration")
+    with pytest.raises(ValueError, match="no channel 'rail'"):
+        read_recording(paths["data"], channel="rail")

@@ -14,7 +14,11 @@ only ``quantity`` is required, ``fs_hz`` when the signal file has no rate)::
     axle_spacing_m = 2.5          # optional: bogie axle spacing (wheelbase)
     axle_positions_m = [0, 2.5]   # optional: all axle positions along the train
 
-Every other key is kept in ``Recording.metadata``. The NPZ holds ``samples`` (1-D) and
+Every other key is kept in ``Recording.metadata``.
+
+A recording written by ``railfem passby`` (:mod:`railfem.recording`, JSON sidecar with
+``format = "railfem-recording v1"``, one column per channel) is read too: one channel
+becomes one :class:`Recording` (``channel`` names it when there are several). The NPZ holds ``samples`` (1-D) and
 optionally ``fs``. A WAV file must be mono; integer PCM is read as integers and needs
 ``scale`` (SI units per count), float WAV is read as is. Truths of a simulation belong in a
 separate file that this reader never opens.
@@ -74,13 +78,48 @@ def _number(meta: dict, key: str, where: Path):
     return float(v)
 
 
-def read_recording(path) -> Recording:
-    """Read ``path`` (.npz or .wav) and its sidecar into a :class:`Recording`."""
+def _from_railfem_recording(path: Path, channel: str | None) -> Recording:
+    from railfem import recording as rr
+
+    rec = rr.read_recording(path)
+    names = [c.name for c in rec.channels]
+    if channel is None:
+        if len(names) > 1:
+            raise ValueError(f"recording {path.name} has channels {names}; choose one "
+                             "(channel=... / --channel NAME)")
+        channel = names[0]
+    if channel not in names:
+        raise ValueError(f"recording {path.name} has no channel {channel!r}; it has {names}")
+    j = names.index(channel)
+    c = rec.channels[j]
+    if c.quantity not in QUANTITIES:
+        raise ValueError(f"recording {path.name}, channel {channel!r}: quantity "
+                         f"{c.quantity!r} is not supported; give an acceleration or velocity")
+    meta = dict(rec.site)
+    meta.update(channel=c.name, x_from_support_m=c.x_from_support)
+    return Recording(samples=rec.signal[:, j], fs=rec.sample_rate, quantity=c.quantity,
+                     sensor=c.location, direction=c.direction, speed=rec.speed,
+                     name=f"{path.name}:{c.name}" if len(names) > 1 else path.name,
+                     metadata=meta)
+
+
+def read_recording(path, *, channel: str | None = None) -> Recording:
+    """Read ``path`` (.npz or .wav) and its sidecar into a :class:`Recording`.
+
+    ``channel`` selects a channel of a multi-channel ``railfem passby`` recording."""
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"recording {path} does not exist")
     meta_path = sidecar_path(path)
     meta = _read_sidecar(meta_path)
+    if "format" in meta:
+        from railfem.recording import FORMAT_TAG
+
+        if meta["format"] != FORMAT_TAG:
+            raise ValueError(f"{meta_path}: unknown recording format {meta['format']!r}")
+        return _from_railfem_recording(path, channel)
+    if channel is not None:
+        raise ValueError(f"recording {path.name} has a single channel; do not give channel")
     quantity = meta.get("quantity")
     if quantity not in QUANTITIES:
         raise ValueError(f"{meta_path}: 'quantity' must be one of {sorted(QUANTITIES)}, got "
