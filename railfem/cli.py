@@ -7,6 +7,7 @@
     railfem convergence --profile 60E1 --sizes 20 15 10 7.5 5 --frequencies 1000 --out DIR
     railfem mobility --free --freq 50:8000:60 --response head foot_sensor --x 0 0.3 --out DIR
     railfem passby --preset site --speed-kmh 216 --wheel flexible --signal --out DIR
+    railfem tdr-passby run1.npz run2.wav --out DIR          pass-by decay rates
 
 Lengths on the command line are in mm (element sizes), frequencies in Hz, wavenumbers in
 rad/m. Each subcommand parses its arguments and calls one function of
@@ -488,6 +489,47 @@ def _mobility_run(args) -> int:
     return 0
 
 
+# ------------------------------------------------------------ pass-by decay rate
+def _tdr_passby_args(p: argparse.ArgumentParser) -> None:
+    p.add_argument("recordings", nargs="+", type=Path, metavar="RECORDING",
+                   help="pass-by recordings: .npz or .wav, each with a .toml or .json "
+                        "metadata file of the same name (quantity, fs_hz, speed_m_s, ...)")
+    p.add_argument("--f-low", type=_positive, default=100.0, help="lowest band (Hz)")
+    p.add_argument("--f-high", type=_positive, default=5000.0, help="highest band (Hz)")
+    p.add_argument("--speed", type=_positive, default=None, metavar="M/S",
+                   help="train speed in m/s (overrides the metadata)")
+    p.add_argument("--axle-spacing", type=_positive, default=None, metavar="M",
+                   help="bogie axle spacing in m, to find the speed when it is not known")
+    p.add_argument("--channel", default=None, metavar="NAME",
+                   help="channel of multi-channel 'railfem passby' recordings")
+    p.add_argument("--l1", type=_positive, default=1.0, metavar="M",
+                   help="energy window around each wheel, m (default 1)")
+    p.add_argument("--l3-low", type=_positive, default=0.6, metavar="M",
+                   help="slope-fit length below --l3-split, m (default 0.6)")
+    p.add_argument("--l3-high", type=_positive, default=1.2, metavar="M",
+                   help="slope-fit length from --l3-split up, m (default 1.2)")
+    p.add_argument("--l3-split", type=_positive, default=1000.0, metavar="HZ",
+                   help="band centre frequency where the slope-fit length changes (Hz)")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/tdr-passby"),
+                   metavar="DIR", help="output folder (default railfem-output/tdr-passby)")
+
+
+def _tdr_passby_run(args) -> int:
+    from .estimators.passby import PassbyOptions
+    from .tdrpassbyjob import run_tdr_passby
+
+    opts = PassbyOptions(f_low=args.f_low, f_high=args.f_high, l1=args.l1,
+                         l3_low=args.l3_low, l3_high=args.l3_high, l3_split_hz=args.l3_split)
+    s = run_tdr_passby(args.recordings, args.out, opts, speed=args.speed,
+                       axle_spacing=args.axle_spacing, channel=args.channel)
+    for w in s["wheels"]:
+        sys.stdout.write(f"{w['name']}: {w['count']} wheels, {w['speed_m_s']:.2f} m/s "
+                         f"({w['speed_source']})\n")
+    for v in s["files"].values():
+        sys.stdout.write(f"wrote {v}\n")
+    return 0
+
+
 #: name -> (add_arguments(parser), run(args) -> exit code, help)
 # ------------------------------------------------------------ decay rate from data
 def _tdr_args(p: argparse.ArgumentParser) -> None:
@@ -547,6 +589,8 @@ COMMANDS = {
     "tdr": (_tdr_args, _tdr_run, "track decay rate from measured or simulated data"),
     "passby": (_passby_args, _passby_run,
                "train pass-by: rail vibration from roughness, band levels, time signal"),
+    "tdr-passby": (_tdr_passby_args, _tdr_passby_run,
+                   "track decay rate from pass-by recordings (energy iteration, slope fit)"),
 }
 
 

@@ -30,7 +30,7 @@ __all__ = [
     "mark_frequencies", "plot_point_mobility", "nominal_band_label", "plot_band_values",
     "plot_decay_rate", "plot_decay_rate_results", "mark_cut_ons", "along_rail_frequencies",
     "plot_along_rail", "convergence_slope", "plot_convergence", "plot_band_overlay",
-    "plot_band_residual", "plot_passby_levels",
+    "plot_band_residual", "plot_passby_levels", "plot_decay_rate_estimates",
 ]
 
 _MARKERS = ("o", "s", "^", "v", "D", "<", ">", "p", "h", "*", "X", "P")
@@ -771,3 +771,35 @@ def plot_band_residual(centres, residual, labels=None, *, ylabel: str = "Model -
         ax.bar(left, r[:, j], width=left * (width - 1), align="edge", label=name)
     ax.axhline(0.0, color="black", linewidth=0.8)
     return _band_axes(ax, centres, ylabel, grid_axis="y")
+
+
+# ------------------------------------------------------------- pass-by decay rates
+def plot_decay_rate_estimates(centres, estimates: dict, *, ax=None,
+                              ylabel: str = "Decay rate (dB/m)"):
+    """Decay rates per one-third-octave band from several estimators, with error bars.
+
+    ``estimates`` maps a label to ``(values, errors)``, each (nb,) in dB/m (errors may be
+    None); NaN values (failed bands) leave gaps. Log value axis, nominal band labels.
+    """
+    centres = _vector(centres, "centres")
+    if np.any(centres <= 0):
+        raise ValueError("centres must be positive band centre frequencies in Hz")
+    ax = _axes(ax)
+    n = max(len(estimates), 1)
+    for j, (label, (values, errors)) in enumerate(estimates.items()):
+        v = _columns(values, centres.size, f"values of {label!r}", "centres")[:, 0]
+        e = None if errors is None else np.nan_to_num(
+            _columns(errors, centres.size, f"errors of {label!r}", "centres")[:, 0])
+        shift = 2.0 ** ((j - (n - 1) / 2) / 24)  # side by side within the band
+        ax.errorbar(centres * shift, np.where(v > 0, v, np.nan), yerr=e,
+                    marker=_MARKERS[j % len(_MARKERS)], markersize=4, capsize=2,
+                    label=str(label))
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    _plain_log_labels(ax.yaxis)
+    _band_ticks(ax, centres)
+    ax.set_xlabel("One-third-octave band centre frequency (Hz)")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which="both", alpha=0.3)
+    _legend(ax)
+    return ax

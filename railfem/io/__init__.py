@@ -10,7 +10,8 @@
 * :func:`read_decay_rate_table` / :func:`write_decay_rate_table` — wide decay-rate tables
   (:mod:`.tdr_table`);
 * :func:`read_frf_csv` / :func:`write_frf_csv` — railfem's own tagged FRF CSV
-  (:mod:`railfem.frfio`).
+  (:mod:`railfem.frfio`);
+* :mod:`.recording` — one-sensor pass-by recordings for the decay-rate estimators.
 
 Malformed input raises a subclass of :class:`MeasurementFileError` (a ``ValueError``) that
 names the file, the line/column/key, the value and the fix.
