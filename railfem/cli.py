@@ -7,7 +7,7 @@
     railfem convergence --profile 60E1 --sizes 20 15 10 7.5 5 --frequencies 1000 --out DIR
     railfem mobility --free --freq 50:8000:60 --response head foot_sensor --x 0 0.3 --out DIR
     railfem passby --preset site --speed-kmh 216 --wheel flexible --signal --out DIR
-    railfem tdr-passby run1.npz run2.wav --out DIR          pass-by decay rates
+    railfem tdr passby run1.npz run2.wav --out DIR          pass-by decay rates
 
 Lengths on the command line are in mm (element sizes), frequencies in Hz, wavenumbers in
 rad/m. Each subcommand parses its arguments and calls one function of
@@ -491,6 +491,7 @@ def _mobility_run(args) -> int:
 
 # ------------------------------------------------------------ pass-by decay rate
 def _tdr_passby_args(p: argparse.ArgumentParser) -> None:
+    p.set_defaults(_run=_tdr_passby_run)
     p.add_argument("recordings", nargs="+", type=Path, metavar="RECORDING",
                    help="pass-by recordings: .npz or .wav, each with a .toml or .json "
                         "metadata file of the same name (quantity, fs_hz, speed_m_s, ...)")
@@ -553,6 +554,11 @@ def _tdr_args(p: argparse.ArgumentParser) -> None:
                    help="weight the point FRF at x = 0 (EN 15461, default) or where it was struck")
     h.add_argument("--out", type=Path, default=Path("railfem-output/tdr"), metavar="DIR",
                    help="output folder (default railfem-output/tdr)")
+    h.set_defaults(_run=_tdr_run)
+    _tdr_passby_args(sub.add_parser(
+        "passby", help="energy iteration and slope fitting on pass-by recordings",
+        description="Track decay rate from pass-by recordings (time signals + metadata): "
+                    "energy iteration and slope fitting per one-third-octave band."))
 
 
 def _tdr_run(args) -> int:
@@ -589,8 +595,6 @@ COMMANDS = {
     "tdr": (_tdr_args, _tdr_run, "track decay rate from measured or simulated data"),
     "passby": (_passby_args, _passby_run,
                "train pass-by: rail vibration from roughness, band levels, time signal"),
-    "tdr-passby": (_tdr_passby_args, _tdr_passby_run,
-                   "track decay rate from pass-by recordings (energy iteration, slope fit)"),
 }
 
 

@@ -1,4 +1,4 @@
-"""The ``railfem tdr-passby`` job: pass-by recordings in, per-band decay rates out.
+"""The ``railfem tdr passby`` job: pass-by recordings in, per-band decay rates out.
 
 Writes into the output folder, each file atomically: ``decay_rate_passby.csv`` (both
 estimators per band with their scatter and status), ``wheels.csv`` (detected wheels and
@@ -23,7 +23,7 @@ __all__ = ["COMMAND", "run_tdr_passby"]
 
 log = logging.getLogger(__name__)
 
-COMMAND = "tdr-passby"
+COMMAND = "tdr passby"
 
 
 def _plain(obj):

@@ -272,24 +272,24 @@ def test_cli_tdr_passby_writes_results_and_refuses_bad_input(tmp_path, capsys):
                                          Recording(samples=x, fs=FS, axle_spacing=None))[0]))
     out = tmp_path / "out"
     # no speed anywhere: refused before any output is written
-    assert main(["tdr-passby", *paths, "--f-low", "1000", "--f-high", "2000",
+    assert main(["tdr", "passby", *paths, "--f-low", "1000", "--f-high", "2000",
                  "--out", str(out)]) == 2
     assert "one known length" in capsys.readouterr().err
     assert not (out / "run.json").exists()
-    assert main(["tdr-passby", *paths, "--f-low", "1000", "--f-high", "2000", "--speed", "10",
+    assert main(["tdr", "passby", *paths, "--f-low", "1000", "--f-high", "2000", "--speed", "10",
                  "--out", str(out)]) == 0
     names = {p.name for p in out.iterdir()}
     assert {"decay_rate_passby.csv", "wheels.csv", "band_levels_passby.csv",
             "decay_rate_passby.png", "run.json"} <= names
     run = json.loads((out / "run.json").read_text())
-    assert run["command"] == "tdr-passby" and [w["count"] for w in run["wheels"]] == [8, 8]
+    assert run["command"] == "tdr passby" and [w["count"] for w in run["wheels"]] == [8, 8]
     lines = [ln for ln in (out / "decay_rate_passby.csv").read_text().splitlines()
              if not ln.startswith("#")]
     head = lines[0].split(",")
     row = dict(zip(head, lines[-1].split(",")))  # 2000 Hz band
     assert row["band_hz"] == "2000" and row["energy_status"] == "ok"
     assert float(row["energy_D_dB_per_m"]) == pytest.approx(2.5, rel=0.25)
-    assert main(["tdr-passby", *paths, "--speed", "10", "--out", str(tmp_path / "o2")]) == 2
+    assert main(["tdr", "passby", *paths, "--speed", "10", "--out", str(tmp_path / "o2")]) == 2
     assert "upper edge" in capsys.readouterr().err  # default 5 kHz band above 0.4 fs
 
 
