@@ -312,7 +312,9 @@ def hammer_x(spec: TrackSpec, positions=None, offset: float = POINT_OFFSET,
         positions, dtype=float)
     if not np.isfinite(offset) or offset < 0:
         raise ValueError(f"offset = {offset!r} m: give the hammer offset at position 0, >= 0")
-    return xs, pos, xs + np.where(pos == 0, offset, pos)
+    # rounded to the nanometre: 0.6 * 0.75 prints as 0.44999999999999996 in the output files
+    pos = np.round(pos, 9)
+    return xs, pos, np.round(xs + np.where(pos == 0, offset, pos), 9)
 
 
 def decay_rate(spec: TrackSpec, frequency, *, output: str = "head", positions=None,
