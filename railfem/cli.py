@@ -20,6 +20,7 @@ import argparse
 import logging
 import os
 import sys
+import threading
 from pathlib import Path
 
 # The solvers work on many small dense and sparse matrices, where threaded BLAS only
@@ -334,6 +335,51 @@ def _mobility_run(args) -> int:
 
 
 #: name -> (add_arguments(parser), run(args) -> exit code, help)
+# ------------------------------------------------------------ decay rate from data
+def _tdr_args(p: argparse.ArgumentParser) -> None:
+    sub = p.add_subparsers(dest="method", metavar="METHOD", required=True)
+    h = sub.add_parser("hammer", help="EN 15461 hammer method on a measurement",
+                       description="EN 15461 decay rate of a hammer measurement: a dataset "
+                       "folder (frf.csv + meta.json) or a TOML descriptor of a CSV/UFF file.")
+    h.add_argument("data", type=Path, metavar="DATA", help="dataset folder or .toml descriptor")
+    h.add_argument("--sensor", nargs="+", metavar="NAME", help="sensors to use (default all)")
+    h.add_argument("--threshold-db", type=_finite, default=-15.0, metavar="DB",
+                   help="noise-floor candidates: level re the point FRF below this (default -15)")
+    h.add_argument("--floor-drop-db", type=_positive, default=3.0, metavar="DB",
+                   help="a tail is a noise floor when it falls less than this (default 3)")
+    h.add_argument("--plain-threshold", action="store_true",
+                   help="drop everything below the threshold (no flat-tail test)")
+    h.add_argument("--attenuation-range", type=_non_negative, nargs=2, metavar=("LOW", "HIGH"),
+                   help="also drop positions implying an attenuation outside LOW..HIGH dB/m "
+                   "below 400 Hz (e.g. 3 30); off by default")
+    h.add_argument("--no-exclusion", action="store_true", help="use every position")
+    h.add_argument("--point", choices=("nominal", "realised"), default="nominal",
+                   help="weight the point FRF at x = 0 (EN 15461, default) or where it was struck")
+    h.add_argument("--out", type=Path, default=Path("railfem-output/tdr"), metavar="DIR",
+                   help="output folder (default railfem-output/tdr)")
+
+
+def _tdr_run(args) -> int:
+    from .estimators.tdr import NO_EXCLUSION, NoiseFloorExclusion
+    from .tdrjob import run_tdr_hammer
+
+    if args.no_exclusion:
+        exclusion = NO_EXCLUSION
+    else:
+        exclusion = NoiseFloorExclusion(
+            threshold_db=args.threshold_db,
+            floor_drop_db=None if args.plain_threshold else args.floor_drop_db,
+            attenuation_range=None if args.attenuation_range is None else tuple(args.attenuation_range))
+    s = run_tdr_hammer(args.data, args.out, exclusion=exclusion, point=args.point,
+                       sensors=args.sensor)
+    for name, r in s["decay_rate"].items():
+        n_ok = sum(r["suitable"])
+        sys.stdout.write(f"{name}: {n_ok} of {len(r['suitable'])} bands suitable\n")
+    for v in s["files"].values():
+        sys.stdout.write(f"wrote {v}\n")
+    return 0
+
+
 COMMANDS = {
     "mesh": (_mesh_args, _mesh_run, "mesh a rail profile and write a mesh-quality summary"),
     "dispersion": (_dispersion_args, _dispersion_run,
@@ -344,7 +390,17 @@ COMMANDS = {
                  "free-rail point and transfer mobilities (CSV, plot)"),
     "track": (_track_args, _track_run,
               "supported track of a Table 1 preset: mobilities, EN 15461 decay rates, plots"),
+    "tdr": (_tdr_args, _tdr_run, "track decay rate from measured or simulated data"),
 }
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("railfem")
+    except PackageNotFoundError:  # running from a source tree that was never installed
+        return "unknown (not installed)"
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -354,6 +410,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", action="count", default=0,
                         help="more log output (-vv for debug)")
     parser.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
+    parser.add_argument("--version", action="version", version=f"railfem {_version()}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, (add_args, run, help_text) in COMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
@@ -407,13 +464,39 @@ def _setup_logging(verbose: int, quiet: bool):
     return restore
 
 
+def _terminate(signum, frame):
+    # SIGTERM (kill, a batch scheduler) unwinds like Ctrl-C, so that temporary files of
+    # the atomic writer are removed instead of being left behind
+    raise KeyboardInterrupt
+
+
+def _stdout_closed() -> int:
+    """The reader of our stdout went away (``railfem ... | head``): not an error of ours.
+    Point stdout at devnull so the interpreter's final flush does not complain again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):
+        pass
+    return 0
+
+
 def main(argv=None) -> int:
     """Entry point of the ``railfem`` command; returns the exit code."""
+    import signal
+
     parser = build_parser()
     args = parser.parse_args(argv)  # exits with code 2 on malformed arguments
     restore_logging = _setup_logging(args.verbose, args.quiet)
+    previous_term = None
+    if threading.current_thread() is threading.main_thread():
+        previous_term = signal.signal(signal.SIGTERM, _terminate)
     try:
-        return int(args._run(args) or 0)
+        code = int(args._run(args) or 0)
+        sys.stdout.flush()
+        return code
+    except BrokenPipeError:
+        return _stdout_closed()
     except (BadInput, ValueError, OSError, KeyError) as exc:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         log.debug("traceback of the error below", exc_info=True)
@@ -423,6 +506,8 @@ def main(argv=None) -> int:
         sys.stderr.write("railfem: interrupted\n")
         return 130
     finally:
+        if previous_term is not None:
+            signal.signal(signal.SIGTERM, previous_term)
         restore_logging()
 
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from . import meshing, section, waveguide, waves
-from .atomic import write_text_atomic  # noqa: F401  (re-exported for the jobs)
+from .atomic import prepare_output_dir, write_text_atomic  # noqa: F401  (re-exported)
 from .materials import Material
 from .profiles import EN13674_60E1, RailProfile, get_profile, polygon_properties
 
@@ -192,8 +192,8 @@ def run_mesh(profile, h: float, out_dir) -> dict:
     """Mesh ``profile`` at element size ``h`` (m); write <name>.npz, <name>_quality.json and
     <name>_quality.txt in ``out_dir``. Returns {'mesh', 'json', 'txt', 'quality'}."""
     prof = _resolve_profile(profile)
+    out = prepare_output_dir(out_dir, "mesh")
     mesh = meshing.mesh_profile(prof, h)
-    out = Path(out_dir)
     npz = meshing.save_mesh(mesh, out / f"{mesh.name}.npz")
     q = mesh_quality(mesh)
     js = write_text_atomic(out / f"{mesh.name}_quality.json", json.dumps(q, indent=2) + "\n")
@@ -306,7 +306,7 @@ def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=Non
 
     if (frequencies is None) == (k_values is None):
         raise ValueError("give either frequencies (Hz) or k_values (rad/m), not both/neither")
-    out = Path(out_dir)
+    out = prepare_output_dir(out_dir, "dispersion")
     material = Material.steel(loss_factor)
     mesh = load_or_mesh(profile, h, mesh_file)
     guide = waveguide.assemble(mesh, material)
@@ -368,6 +368,7 @@ def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=Non
                         len(shapes))
     paths["renders"] = renders
     meta = {
+        "command": "dispersion",
         "profile": mesh.profile.name, "profile_source": mesh.profile.source, "mesh": mesh.name,
         "h_m": mesh.h, "n_dofs": guide.n_dofs,
         "material": {"E": material.E, "nu": material.nu, "rho": material.rho,
@@ -442,7 +443,7 @@ def run_convergence(profile, sizes, out_dir, *, frequencies=(), n_cut_on: int = 
     are given) and convergence.json (all arrays)."""
     from .convergence import convergence_study
 
-    out = Path(out_dir)
+    out = prepare_output_dir(out_dir, "convergence")
     study = convergence_study(_resolve_profile(profile), sizes, frequencies=frequencies,
                               n_cut_on=n_cut_on, reference=reference,
                               progress=progress or progress_logger("convergence (meshes)"))

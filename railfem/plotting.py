@@ -15,11 +15,11 @@ from __future__ import annotations
 import logging
 import os
 import sys
-import tempfile
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
+
+from .atomic import atomic_path
 
 log = logging.getLogger(__name__)
 
@@ -31,9 +31,6 @@ _MARKERS = ("o", "s", "^", "v", "D", "<", ">", "p", "h", "*", "X", "P")
 # preferred-number series of nominal one-third-octave centre frequencies (IEC 61260)
 _NOMINAL_MANTISSAS = np.array([1.0, 1.25, 1.6, 2.0, 2.5, 3.15, 4.0, 5.0, 6.3, 8.0, 10.0])
 # Permissions of written files: what open() would give (0666 minus the umask).
-_UMASK = os.umask(0)
-os.umask(_UMASK)
-_FILE_MODE = 0o666 & ~_UMASK
 _NON_GUI_BACKENDS = {"agg", "pdf", "pgf", "ps", "svg", "cairo", "template"}
 
 
@@ -77,18 +74,10 @@ def save_figure(fig, path, *, dpi: int = 150, close: bool = True) -> Path:
     if not hasattr(fig, "savefig"):
         raise TypeError(f"save_figure needs a matplotlib Figure or Axes, got {type(fig)!r}")
     path = Path(path)
-    suffix = path.suffix or ".png"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        os.chmod(tmp, _FILE_MODE)  # mkstemp gives 0600; figures get the usual mode
-        fig.savefig(tmp, format=suffix.lstrip(".").lower(), dpi=dpi)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    if not path.suffix:
+        path = path.with_suffix(".png")
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, format=path.suffix.lstrip(".").lower(), dpi=dpi)
     if close:
         _pyplot().close(fig)
     log.info("wrote figure %s", path)
@@ -390,8 +379,84 @@ def plot_convergence(h, errors, labels=None, *, ax=None, fit: bool = True,
     return ax
 
 
+# ------------------------------------------------------- model vs measurement, per band
+def _band_centres(centres) -> np.ndarray:
+    centres = _vector(centres, "centres")
+    if np.any(centres <= 0):
+        raise ValueError("centres must be positive band centre frequencies in Hz")
+    return centres
+
+
+def plot_band_overlay(centres, measured, model=None, *, valid=None,
+                      labels=("measured", "model"), ylabel: str = "Decay rate (dB/m)",
+                      ax=None, logy: bool = False):
+    """Measured values per band (markers) over model values (line), e.g. decay rates.
+
+    centres : (nb,) band centres (Hz); measured, model : (nb,) or (nb, nc) (model may be
+    None); valid : bool like ``measured`` — bands that failed their checks (False) are drawn
+    as open markers and named in the legend. Returns the Axes.
+    """
+    centres = _band_centres(centres)
+    meas = _columns(measured, centres.size, "measured", "centres")
+    ok = (np.ones(meas.shape, bool) if valid is None
+          else _columns(valid, centres.size, "valid", "centres", dtype=bool))
+    if ok.shape != meas.shape:
+        raise ValueError(f"valid has shape {ok.shape}, measured {meas.shape}; give one flag per value")
+    mod = None if model is None else _columns(model, centres.size, "model", "centres")
+    names = list(labels) if not isinstance(labels, str) else [labels, None]
+    ax = _axes(ax)
+    for j in range(meas.shape[1]):
+        mk = _MARKERS[j % len(_MARKERS)]
+        suffix = f" {j + 1}" if meas.shape[1] > 1 else ""
+        line, = ax.plot(centres[ok[:, j]], meas[ok[:, j], j], mk, markersize=5,
+                        label=f"{names[0]}{suffix}")
+        if (~ok[:, j]).any():
+            ax.plot(centres[~ok[:, j]], meas[~ok[:, j], j], mk, markersize=5,
+                    markerfacecolor="none", color=line.get_color(),
+                    label=f"{names[0]}{suffix}, band failed its checks")
+    if mod is not None:
+        for j in range(mod.shape[1]):
+            suffix = f" {j + 1}" if mod.shape[1] > 1 else ""
+            ax.plot(centres, mod[:, j], "-", label=f"{names[1] or 'model'}{suffix}")
+    return _band_axes(ax, centres, ylabel, logy=logy)
+
+
+def _band_axes(ax, centres, ylabel: str, *, logy: bool = False, grid_axis: str = "both"):
+    """Log band axis with nominal labels, value label, grid and legend; returns ``ax``."""
+    ax.set_xscale("log")
+    if logy:
+        ax.set_yscale("log")
+        _plain_log_labels(ax.yaxis)
+    _band_ticks(ax, centres)
+    ax.set_xlabel("One-third-octave band centre frequency (Hz)")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which="major", axis=grid_axis, alpha=0.3)
+    _legend(ax)
+    return ax
+
+
+def plot_band_residual(centres, residual, labels=None, *, ylabel: str = "Model - measurement (dB)",
+                       ax=None):
+    """Residual per band as bars around a zero line; (nb,) or (nb, nc) side by side.
+
+    NaN residuals (bands not compared) leave a gap. Returns the Axes.
+    """
+    centres = _band_centres(centres)
+    r = _columns(residual, centres.size, "residual", "centres")
+    names = _labels(labels, r.shape[1])
+    ax = _axes(ax)
+    n = r.shape[1]
+    width = 2 ** (1 / 3 / (n + 1))  # bars share one third of an octave, in log space
+    for j, name in enumerate(names):
+        left = centres * width ** (j - n / 2)
+        ax.bar(left, r[:, j], width=left * (width - 1), align="edge", label=name)
+    ax.axhline(0.0, color="black", linewidth=0.8)
+    return _band_axes(ax, centres, ylabel, grid_axis="y")
+
+
 __all__ = [
     "MAX_ATTENUATION", "convergence_slope", "nominal_band_label", "plot_along_rail",
-    "plot_band_values", "plot_convergence", "plot_dispersion", "plot_dispersion_k",
-    "plot_magnitude_phase", "propagating_mask", "save_figure",
+    "plot_band_overlay", "plot_band_residual", "plot_band_values", "plot_convergence",
+    "plot_dispersion", "plot_dispersion_k", "plot_magnitude_phase", "propagating_mask",
+    "save_figure",
 ]

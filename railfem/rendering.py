@@ -17,11 +17,12 @@ from __future__ import annotations
 
 import logging
 import os
-import tempfile
 from pathlib import Path
 from typing import Sequence
 
 import numpy as np
+
+from .atomic import atomic_path
 
 log = logging.getLogger(__name__)
 
@@ -35,9 +36,6 @@ _SCALAR_BAR = {"title": "magnitude", "color": "black", "fmt": "%.2g", "vertical"
                "position_x": 0.87, "position_y": 0.1, "width": 0.06, "height": 0.5,
                "title_font_size": 16, "label_font_size": 14}
 # Permissions of written files: what open() would give (0666 minus the umask).
-_UMASK = os.umask(0)
-os.umask(_UMASK)
-_FILE_MODE = 0o666 & ~_UMASK
 # Each edge of a 6-node triangle as (start vertex, midside node, end vertex).
 _P2_EDGES = np.array([[0, 3, 1], [1, 4, 2], [2, 5, 0]])
 
@@ -156,17 +154,8 @@ def _surface_mesh(pv, points: np.ndarray, triangles: np.ndarray):
 
 def _write_atomic(plotter, path: Path) -> None:
     """Screenshot to a temporary file beside ``path``, then move it into place."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".png", dir=path.parent)
-    os.close(fd)
-    try:
-        os.chmod(tmp, _FILE_MODE)  # mkstemp gives 0600; outputs get the usual 0644-like mode
-        plotter.screenshot(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    with atomic_path(path) as tmp:
+        plotter.screenshot(str(tmp))
 
 
 def render_wave_shape(nodes, elements, displacement, path, *, title=None, scale=None,

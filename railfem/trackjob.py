@@ -5,11 +5,11 @@ from __future__ import annotations
 import json
 import logging
 import time
-from pathlib import Path
 
 import numpy as np
 
 from . import beams, mobility, section, track, waveguide
+from .atomic import prepare_output_dir
 from .jobs import load_or_mesh, progress_logger, write_text_atomic
 from .materials import Material
 from .standards import en15461, iec61260
@@ -119,8 +119,7 @@ def run_track(preset_name: str, model: str, out_dir, *, profile="60E1", h: float
               along_frequencies=(250.0, 500.0, 1000.0, 2000.0), progress=None) -> dict:
     """Model the track of a Table 1 preset and write mobilities, decay rates and plots."""
     tp = get_preset(preset_name)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    out = prepare_output_dir(out_dir, "track")
     t0 = time.perf_counter()
     mesh = load_or_mesh(profile, h, mesh_file)
     f = iec61260.ninth_octave_grid(f_low, f_high)
@@ -144,7 +143,7 @@ def run_track(preset_name: str, model: str, out_dir, *, profile="60E1", h: float
     bs = beam_section(mesh, Material.steel())
     rail_mass, f_pp = bs.mass_per_length, beams.pinned_pinned_frequency(bs, d)
     summary = {
-        "preset": tp.name, "model": model, "mesh": mesh.name, "n_supports": n_supports,
+        "command": "track", "preset": tp.name, "model": model, "mesh": mesh.name, "n_supports": n_supports,
         "pad_length_m": pad_length, "n_rows": n_rows, "n_foot_springs": n_f,
         "sensor_x_m": xs, "point_offset_m": POINT_OFFSET,
         "rail_pad_peak_hz": {o: rail_pad_peak(f, transfer[:, j, 0], tp, rail_mass, f_pp)
