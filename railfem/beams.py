@@ -353,8 +353,9 @@ def discrete_kernel(section: BeamSection, spring_x, omega, force_x, response_x, 
         terms = (one, res[i][:, None], one, res[i][:, None])
         for name, (u, Lf, Lr) in parts.items():
             g[name][i] = residue_sum(terms, k[i], u, Lf, Lr).transpose(1, 0, 2)
-    return DiscreteKernel(frequency=w / (2 * np.pi), spring_weight=np.ones(1), ss=g["ss"],
-                          ss_index=i_ss, sP=g["sP"][..., 0], sP_index=i_sP, rs=g["rs"],
+    return DiscreteKernel(frequency=w / (2 * np.pi), spring_weight=np.ones(1), spring_x=xs, ss=g["ss"],
+                          ss_sep=u_ss, ss_index=i_ss, sP=g["sP"][..., 0], sP_index=i_sP,
+                          rs=g["rs"],
                           rs_index=i_rs, rP=g["rP"][..., 0], rP_index=i_rP)
 
 

@@ -210,36 +210,116 @@ def _convergence_run(args) -> int:
 
 
 def _track_args(p: argparse.ArgumentParser) -> None:
-    from .supports import PRESETS
-    from .trackjob import MODELS
+    from .spec import MODELS, PRESETS
 
-    _add_profile(p)
-    p.add_argument("--preset", choices=sorted(PRESETS), default="site",
+    p.add_argument("--profile", default=None,
+                   help="'60E1' (= UIC60, default), 'rect:WIDTHxHEIGHT' in mm, or the path "
+                        "of an outline CSV (y,z in mm, counter-clockwise, foot at z = 0)")
+    p.add_argument("--h", type=_positive, default=None, metavar="MM",
+                   help="element size in mm, 0.5 to 100 (default 10)")
+    p.add_argument("--preset", choices=sorted(PRESETS), default=None,
                    help="track parameter set of METHOD.md Table 1 (default site)")
-    p.add_argument("--model", choices=MODELS, default="wfe-discrete",
+    p.add_argument("--config", type=Path, default=None, metavar="FILE",
+                   help="track spec and job settings from a TOML file or from a run.json of "
+                        "an earlier run (its 'config' section); options given here override "
+                        "it, it overrides the preset")
+    p.add_argument("--from-run", type=Path, default=None, metavar="DIR",
+                   help="repeat the run whose outputs are in DIR (same as --config "
+                        "DIR/run.json)")
+    p.add_argument("--model", choices=MODELS, default=None,
                    help="track model (default wfe-discrete)")
-    p.add_argument("--f-low", type=_positive, default=50.0, help="lowest band (Hz)")
-    p.add_argument("--f-high", type=_positive, default=8000.0, help="highest band (Hz)")
-    p.add_argument("--n-supports", type=_count, default=131,
-                   help="discrete supports centred on the sensor span (default 131)")
-    p.add_argument("--pad-length", type=_non_negative, default=0.0, metavar="M",
-                   help="pad length along the rail (m); 0 = point supports (default)")
-    p.add_argument("--n-rows", type=_count, default=1, help="spring rows per pad")
-    p.add_argument("--n-foot-springs", type=_count, default=8,
+    g = p.add_argument_group("track parameters (override the preset and the config)")
+    g.add_argument("--kp", type=_non_negative, default=None, metavar="MN/m",
+                   help="rail pad stiffness per fastener, MN/m")
+    g.add_argument("--eta-p", type=_non_negative, default=None, metavar="ETA",
+                   help="rail pad loss factor (-)")
+    g.add_argument("--kb", type=_non_negative, default=None, metavar="MN/m",
+                   help="ballast stiffness per fastener and rail, MN/m")
+    g.add_argument("--eta-b", type=_non_negative, default=None, metavar="ETA",
+                   help="ballast loss factor (-)")
+    g.add_argument("--ms", type=_non_negative, default=None, metavar="KG",
+                   help="sleeper mass per rail, kg")
+    g.add_argument("--eta-r", type=_non_negative, default=None, metavar="ETA",
+                   help="rail loss factor (-)")
+    g.add_argument("--spacing", type=_positive, default=None, metavar="MM",
+                   help="sleeper spacing, mm (Table 1: 600)")
+    g.add_argument("--pad-length", type=_non_negative, default=None, metavar="MM",
+                   help="pad length along the rail, mm; 0 = point supports (default)")
+    g.add_argument("--n-rows", type=_count, default=None, help="spring rows per pad")
+    g.add_argument("--n-supports", type=_count, default=None,
+                   help="supports of the discrete models (default 131)")
+    g.add_argument("--n-foot-springs", type=_count, default=None,
                    help="springs across the rail foot (default 8)")
+    j = p.add_argument_group("job")
+    j.add_argument("--f-low", type=_positive, default=None, metavar="HZ",
+                   help="lowest band (Hz, default 50)")
+    j.add_argument("--f-high", type=_positive, default=None, metavar="HZ",
+                   help="highest band (Hz, default 8000)")
+    j.add_argument("--cache-dir", type=Path, default=None, metavar="DIR",
+                   help="folder of the kernel cache (default $RAILFEM_CACHE or "
+                        "~/.cache/railfem)")
+    j.add_argument("--no-cache", action="store_true",
+                   help="keep kernels in memory only (nothing read from or written to disk)")
     p.add_argument("--out", type=Path, default=Path("railfem-output/track"), metavar="DIR",
                    help="output folder (default railfem-output/track)")
+
+
+def _mm(name: str, value: float | None, low: float, high: float, example: str):
+    """A length given in mm on the command line, checked against a sane range, in m."""
+    if value is None:
+        return None
+    if value != 0 and not low <= value <= high:
+        raise BadInput(f"{name} {value:g} mm: lengths on this command line are in mm; give "
+                       f"a value between {low:g} and {high:g} mm (e.g. {example})")
+    return value * 1e-3
+
+
+def track_spec_from_args(args):
+    """(TrackSpec, JobSettings) from the track options: preset < config < options."""
+    from dataclasses import replace
+
+    from .spec import preset, spec_from_dict
+    from .trackjob import job_from_dict, read_config
+
+    if args.config is not None and args.from_run is not None:
+        raise BadInput("give either --config or --from-run, not both")
+    h = _mm("--h", args.h, 0.5, 100.0, "10")
+    spacing = _mm("--spacing", args.spacing, 100.0, 2000.0, "600")
+    pad = _mm("--pad-length", args.pad_length, 1.0, 1000.0, "150")
+    source = args.config if args.config is not None else args.from_run
+    spec_d, job_d = read_config(source) if source is not None else ({}, {})
+    if args.preset:  # an explicit --preset is the base, whatever the config names
+        spec_d = {k: x for k, x in spec_d.items() if k != "preset"}
+    spec = spec_from_dict(spec_d, base=preset(args.preset) if args.preset else None)
+    job = job_from_dict(job_d)
+    sup = {k: x for k, x in (("kp", args.kp), ("kb", args.kb)) if x is not None}
+    sup = {k: x * 1e6 for k, x in sup.items()}
+    sup.update({k: x for k, x in (("eta_p", args.eta_p), ("eta_b", args.eta_b),
+                                  ("ms", args.ms)) if x is not None})
+    rail = {k: x for k, x in (("profile", args.profile), ("h", h), ("eta", args.eta_r))
+            if x is not None}
+    top = {k: x for k, x in (("model", args.model), ("spacing", spacing), ("pad_length", pad),
+                             ("n_rows", args.n_rows), ("n_supports", args.n_supports))
+           if x is not None}
+    if sup:
+        top["support"] = replace(spec.support, **sup)
+    if rail:
+        top["rail"] = replace(spec.rail, **rail)
+    if args.n_foot_springs is not None:
+        top["numerics"] = replace(spec.numerics, n_foot_springs=args.n_foot_springs)
+    spec = replace(spec, **top)
+    jobs = {k: x for k, x in (("f_low", args.f_low), ("f_high", args.f_high)) if x is not None}
+    return spec, replace(job, **jobs)
 
 
 def _track_run(args) -> int:
     from .trackjob import run_track
 
-    s = run_track(args.preset, args.model, args.out, profile=args.profile, h=args.h * 1e-3,
-                  mesh_file=getattr(args, "mesh_file", None), f_low=args.f_low,
-                  f_high=args.f_high, n_supports=args.n_supports, pad_length=args.pad_length,
-                  n_rows=args.n_rows, n_f=args.n_foot_springs)
+    spec, job = track_spec_from_args(args)
+    cache = False if args.no_cache else args.cache_dir
+    s = run_track(spec, args.out, job=job, cache=cache)
     peaks = ", ".join(f"{k} {v:.0f} Hz" for k, v in s["rail_pad_peak_hz"].items())
-    sys.stdout.write(f"{s['preset']} track, {s['model']}: rail-on-pad peak {peaks}; "
+    sys.stdout.write(f"{s['name']} track, {s['model']}: rail-on-pad peak {peaks}; "
                      f"{s['runtime_s']:.1f} s\n")
     for v in s["files"].values():
         sys.stdout.write(f"wrote {v}\n")

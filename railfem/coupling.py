@@ -42,7 +42,8 @@ class DiscreteKernel:
     """Free-rail receptances of a rail with ``n_s`` spring sets of ``n_p`` springs each.
 
     frequency: (nf,) Hz. spring_weight: (n_p,) share of a support carried by each spring of
-    a set (sums to 1). ss: (nf, n_u, n_p, n_p) spring <- spring at distinct separations,
+    a set (sums to 1). spring_x: (n_s,) positions of the sets (m, increasing).
+    ss: (nf, n_u, n_p, n_p) spring <- spring at the distinct separations ss_sep (m),
     ss_index (n_s, n_s). sP: (nf, n_u, n_p) spring <- load, sP_index (n_s, n_fx).
     rs: (nf, n_u, n_out, n_p) response <- spring, rs_index (n_rx, n_s). rP: (nf, n_u, n_out)
     response <- load, rP_index (n_rx, n_fx). All receptances in m/N.
@@ -50,7 +51,9 @@ class DiscreteKernel:
 
     frequency: np.ndarray
     spring_weight: np.ndarray
+    spring_x: np.ndarray
     ss: np.ndarray
+    ss_sep: np.ndarray
     ss_index: np.ndarray
     sP: np.ndarray
     sP_index: np.ndarray
@@ -106,11 +109,56 @@ def _spring_stiffness(K_sets: np.ndarray, weight: np.ndarray) -> np.ndarray:
     return np.where(np.isinf(K_sets)[:, None], complex(np.inf), K).ravel()
 
 
+def _mirror_plan(kernel: DiscreteKernel, K_sets: np.ndarray, ss_flat: np.ndarray):
+    """Index arrays for solving the even and odd parts separately when the problem is
+    symmetric under x -> -x (springs at -x_s, equal K, alpha_ss(-x) = alpha_ss(x), true for
+    vertical footprints), else None: two systems of half the size, four times less work."""
+    xs, n_p = kernel.spring_x, len(kernel.spring_weight)
+    n_s = len(xs)
+    if n_s < 2 or not np.array_equal(np.round(xs, 12), -np.round(xs[::-1], 12)):
+        return None
+    if not np.array_equal(K_sets, K_sets[:, ::-1]):
+        return None
+    u = np.round(kernel.ss_sep, 12)
+    j = np.searchsorted(u, -u)
+    if np.any(j >= len(u)) or not np.array_equal(u[np.minimum(j, len(u) - 1)], -u):
+        return None
+    scale = np.abs(kernel.ss).max(axis=(1, 2, 3), keepdims=True)
+    if np.any(np.abs(kernel.ss - kernel.ss[:, j]) > 1e-12 * scale):  # round-off only
+        return None
+    n_h = n_s // 2
+    flat = lambda sets: (sets[:, None] * n_p + np.arange(n_p)[None, :]).ravel()  # noqa: E731
+    E, O = flat(np.arange(n_h + n_s % 2)), flat(np.arange(n_h))
+    JE, JO = flat(n_s - 1 - np.arange(n_h + n_s % 2)), flat(n_s - 1 - np.arange(n_h))
+    left = np.repeat(np.arange(n_h + n_s % 2) < n_h, n_p).astype(float)  # centre once
+    return dict(E=E, O=O, JE=JE, JO=JO, ee=ss_flat[np.ix_(E, E)], eJ=ss_flat[np.ix_(E, JE)],
+                oo=ss_flat[np.ix_(O, O)], oJ=ss_flat[np.ix_(O, JO)], left=left)
+
+
+def _solve_mirrored(plan, ssr, a, b, rhs):
+    """F of (diag(a) + b alpha_ss) F = rhs from its even and odd parts."""
+    E, O, JE, JO = plan["E"], plan["O"], plan["JE"], plan["JO"]
+    F = np.empty(rhs.shape, dtype=complex)
+    Me = b[E, None] * (ssr[plan["ee"]] + plan["left"][None, :] * ssr[plan["eJ"]])
+    Me[np.diag_indices(len(E))] += a[E]
+    Fe = np.linalg.solve(Me, (rhs[E] + rhs[JE]) / 2)
+    F[E], F[JE] = Fe, Fe
+    if len(O):
+        Mo = b[O, None] * (ssr[plan["oo"]] - ssr[plan["oJ"]])
+        Mo[np.diag_indices(len(O))] += a[O]
+        Fo = np.linalg.solve(Mo, (rhs[O] - rhs[JO]) / 2)
+        F[O] += Fo
+        F[JO] -= Fo
+    return F
+
+
 def couple_discrete(kernel: DiscreteKernel, stiffness) -> np.ndarray:
     """Receptance (nf, n_out, n_rx, n_fx) of the supported rail (m/N).
 
     stiffness: (nf, n_s) dynamic stiffness of each spring set (N/m, complex; one support or
     one row of a spread support), shared by its n_p springs by ``kernel.spring_weight``.
+    A layout symmetric about x = 0 with symmetric stiffness (any uniform track) is solved
+    as its even and odd parts.
     """
     n_s, n_p, n_rx, n_fx = kernel.shape
     nf = len(kernel.frequency)
@@ -126,16 +174,20 @@ def couple_discrete(kernel: DiscreteKernel, stiffness) -> np.ndarray:
     rs_flat = ((kernel.rs_index[None, :, :, None] * n_out + oo[:, None, None, None]) * n_p
                + pp[None, None, None, :]).reshape(n_out * n_rx, n)
     rP_flat = kernel.rP_index[None, :, :] * n_out + oo[:, None, None]
+    plan = _mirror_plan(kernel, K_sets, ss_flat)
     out = np.empty((nf, n_out, n_rx, n_fx), dtype=complex)
     diag = np.arange(n)
     for i in range(nf):
-        A = kernel.ss[i].ravel()[ss_flat]
+        ssr = kernel.ss[i].ravel()
         B = kernel.sP[i].ravel()[sP_flat]
         K = _spring_stiffness(K_sets[i], kernel.spring_weight)
-        a, b = _row_scaling(K, A[diag, diag])
-        M = b[:, None] * A
-        M[diag, diag] += a
-        F = np.linalg.solve(M, b[:, None] * B)
+        a, b = _row_scaling(K, ssr[ss_flat[diag, diag]])
+        if plan is not None:
+            F = _solve_mirrored(plan, ssr, a, b, b[:, None] * B)
+        else:
+            M = b[:, None] * ssr[ss_flat]
+            M[diag, diag] += a
+            F = np.linalg.solve(M, b[:, None] * B)
         G = kernel.rs[i].ravel()[rs_flat]
         out[i] = kernel.rP[i].ravel()[rP_flat] - (G @ F).reshape(n_out, n_rx, n_fx)
     return out

@@ -27,7 +27,7 @@ from .atomic import write_bytes_atomic
 log = logging.getLogger(__name__)
 
 #: Bumped whenever a kernel's content or layout changes: old cache files are then ignored.
-KERNEL_FORMAT = 1
+KERNEL_FORMAT = 2
 
 
 def default_directory() -> Path:

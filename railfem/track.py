@@ -229,7 +229,8 @@ def discrete_kernel(guide: Waveguide, springs: FootSprings, spring_x, frequency,
         if progress:
             progress(i + 1, nf)
     return DiscreteKernel(frequency=f, spring_weight=np.asarray(springs.weight, dtype=float),
-                          ss=ss, ss_index=i_ss, sP=sP, sP_index=i_sP, rs=rs, rs_index=i_rs,
+                          spring_x=xs, ss=ss, ss_sep=u_ss, ss_index=i_ss, sP=sP,
+                          sP_index=i_sP, rs=rs, rs_index=i_rs,
                           rP=rP, rP_index=i_rP)
 
 

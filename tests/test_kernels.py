@@ -24,6 +24,26 @@ def close(new, old):
     return np.abs(new - old).max() / np.abs(old).max()
 
 
+@pytest.fixture(autouse=True)
+def same_waves(monkeypatch):
+    """Both codes see the same wave sets: ARPACK's start vector comes from a generator whose
+    state carries over between calls, so two solves at one frequency agree only to the
+    solver tolerance (1e-10); the comparison here is of the kernel and coupling algebra."""
+    from railfem import waves
+
+    memo = {}
+
+    def waves_at(ops, omega, **kw):
+        key = (ops.family, ops.c, ops.K0.data.sum(), ops.M.data.sum(), omega,
+               tuple(sorted(kw.items())))
+        if key not in memo:
+            memo[key] = waves.waves_at(ops, omega, **kw)
+        return memo[key]
+
+    monkeypatch.setattr(track, "waves_at", waves_at)
+    monkeypatch.setattr(ref, "waves_at", waves_at)
+
+
 @pytest.fixture(scope="module")
 def rail():
     g = waveguide.assemble(meshing.get_mesh("60E1", 0.02), Material.steel(0.015))
@@ -31,14 +51,16 @@ def rail():
                                               mobility.point(g, "foot_sensor", label="foot")]
 
 
-@pytest.mark.parametrize("seed", [1, 2])
+@pytest.mark.parametrize("seed", [1, 2, 3, 4])
 def test_wfe_discrete_kernel_coupling_equals_direct_solve(rail, seed):
+    """Seeds 1, 2: every support different; 3, 4: identical supports (solved as even and
+    odd parts about x = 0)."""
     g, load, outs = rail
     rng = np.random.default_rng(seed)
-    pad = (0.0, 1) if seed == 1 else (0.16, 2)
+    pad = (0.0, 1) if seed % 2 else (0.16, 2)
     lay = supports.uniform_layout(random_params(rng), 0.6, 15, pad_length=pad[0],
                                   n_rows=pad[1])
-    for j in range(len(lay)):  # every support different
+    for j in range(len(lay) if seed < 3 else 0):  # every support different
         lay = supports.with_support(lay, j, random_params(rng))
     f = np.array([80.0, 700.0, 2600.0])
     kw = dict(load=load, outputs=outs, force_x=[0.02, 0.31, -0.7],
@@ -96,6 +118,9 @@ def test_beam_discrete_kernel_coupling_equals_direct_solve():
     fx, rx = np.array([0.0, 0.3, 1.1]), np.array([0.02, 0.3, -3.0, 6.0])
     new = beams.discrete_track_receptance(bs, lay, omega, fx, rx)
     assert close(new, beam_direct(bs, lay, omega, fx, rx)) < RTOL
+    uniform = supports.uniform_layout(random_params(rng), 0.6, 40)  # even/odd parts
+    assert close(beams.discrete_track_receptance(bs, uniform, omega, fx, rx),
+                 beam_direct(bs, uniform, omega, fx, rx)) < RTOL
     assert close(new, ref.discrete_track_receptance(bs, lay, omega, fx, rx)) < 1e-9
     lay = supports.with_support(lay, 20, supports.SupportParameters(kp=np.inf, kb=np.inf))
     lay = supports.with_support(lay, 21, supports.SupportParameters(kp=0.0, kb=1e8))
