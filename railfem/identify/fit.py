@@ -336,7 +336,8 @@ def fit(data, model: str = "wfe-discrete", *, parameters=DEFAULT_PARAMETERS, bas
     todo = [n for n in profiles if n in names and n not in slow]
     if todo and profile_points > 1:
         prof = profile(problem, x_hat, analysis0, todo, profile_points, free, workers)
-    if slow_profile is not None:
+    if slow_profile is not None:  # the profile's costs under the final residual scales
+        slow_profile["cost"] = [problem.cost(np.array(x)) for x in slow_profile["x"]]
         prof[slow[0]] = _slow_profile_summary(slow_profile, float(r @ r),
                                               analysis0["residual_variance"], space, slow[0])
     analysis = uncertainty.analyse(space, x_hat, J, r, prof)
@@ -370,9 +371,14 @@ def jacobian(problem: Problem, x: np.ndarray, slow=(), beam: bool = True) -> np.
         h = (SLOW_STEP["timoshenko" if beam else "wfe"] if n in slow else 1e-6)
         if n in slow:
             sgn = 1.0 if x[i] + h <= hi[i] else -1.0
+            step = sgn * h
+            if not beam:  # reuse a built kernel node within 0.35 decades (one-sided)
+                near = [v for v in problem.forward.slow_values(i) if 0 < abs(v - x[i]) <= 0.35]
+                if near:
+                    step = min(near, key=lambda v: abs(v - x[i])) - x[i]
             xp = x.copy()
-            xp[i] += sgn * h
-            J[:, i] = (problem.residual(xp) - r0) / (sgn * h)
+            xp[i] += step
+            J[:, i] = (problem.residual(xp) - r0) / step
             continue
         a, b = max(x[i] - h, lo[i]), min(x[i] + h, hi[i])
         xa, xb = x.copy(), x.copy()
@@ -388,7 +394,7 @@ def _fit_with_slow(problem, starts, free, name, n_nodes, n_refine, tol, workers,
     i = space.names.index(name)
     lo, hi = space.lower[i], space.upper[i]
     nodes = np.linspace(lo, hi, n_nodes + 2)[1:-1] if n_nodes > 1 else np.array([x_base[i]])
-    _prebuild(problem, nodes, i, x_base, workers)
+    prebuild_nodes(problem, nodes, i, x_base, workers)
     mid = len(nodes) // 2
     order = [mid] + [k for d in range(1, len(nodes)) for k in (mid - d, mid + d)
                      if 0 <= k < len(nodes)]
@@ -425,7 +431,7 @@ def _fit_with_slow(problem, starts, free, name, n_nodes, n_refine, tol, workers,
     vals = sorted(done)
     profile_ = {"name": name, "vector": [float(v) for v in vals],
                 "value": [space.parameters[i].decode(v) for v in vals],
-                "cost": [done[v][0] for v in vals]}
+                "cost": [done[v][0] for v in vals], "x": [done[v][1].tolist() for v in vals]}
     return done[s_best][1], runs, profile_
 
 
@@ -446,7 +452,7 @@ def _parabola_step(done: dict, lo: float, hi: float):
     return float(np.clip(v, max(lo, x3[0]), min(hi, x3[2])))
 
 
-def _prebuild(problem, nodes, i, x_base, workers):
+def prebuild_nodes(problem, nodes, i, x_base, workers):
     """Build the engines of the kernel-parameter nodes (in parallel processes)."""
     fwd = problem.forward
     if fwd.kind != "spectral":
@@ -526,6 +532,8 @@ def _crossing(x, y) -> float:
     """First x where y (starting below CHI2_95) reaches CHI2_95, linearly interpolated."""
     for j in range(1, len(x)):
         if y[j] >= CHI2_95:
+            if y[j - 1] >= CHI2_95 or y[j] == y[j - 1]:
+                return float(x[j - 1])
             return float(x[j - 1] + (CHI2_95 - y[j - 1]) * (x[j] - x[j - 1]) / (y[j] - y[j - 1]))
     return float(x[-1])
 

@@ -172,6 +172,13 @@ class ForwardModel:
         if self.kind == "spectral":
             self._engines[engine.kernel_values] = engine
 
+    def slow_values(self, i: int) -> list[float]:
+        """Vector values of parameter i (a kernel parameter) that have an engine."""
+        p = self.space.parameters[i]
+        j = 0 if p.name == "eta_r" else 1
+        return [p.encode(k[j]) for k in self._engines if isinstance(k, tuple)
+                and (k[j] > 0 or not p.log)]
+
     def spec(self, x) -> TrackSpec:
         return self.space.to_spec(x)
 
