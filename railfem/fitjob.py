@@ -179,8 +179,8 @@ def fit_campaign(items, *, scheduler=None, base=None, workers=None, model="wfe-d
                         sensor_x=target.sensor_x, force_x=target.force_x)
     forward = ForwardModel(space, geometry, cache=cache)
     beam = model.startswith("timoshenko")
-    slow_nodes = slow_nodes or (7 if beam else 6)
-    slow_refine = (8 if beam else 0) if slow_refine is None else slow_refine
+    slow_nodes = slow_nodes or (5 if beam else 6)
+    slow_refine = (3 if beam else 0) if slow_refine is None else slow_refine
     nw = workers or default_workers()
     slow = [n for n in space.names if n in forward.slow]
     if slow:  # the profile nodes every row uses, built once (in processes)

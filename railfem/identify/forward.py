@@ -180,8 +180,11 @@ class ForwardModel:
                 and (k[j] > 0 or not p.log)]
 
     def spec(self, x) -> TrackSpec:
-        return self.space.to_spec(x)
+        """The spec of x; a vector on a bound is moved in by 1e-12 (vector units) so that
+        the round trip through log10 cannot step outside the space's bounds."""
+        sp = self.space
+        return sp.to_spec(np.clip(x, sp.lower + 1e-12, sp.upper - 1e-12))
 
     def receptance(self, x) -> np.ndarray:
-        spec = self.space.to_spec(x)
+        spec = self.spec(x)
         return self.engine(spec).receptance(spec)
