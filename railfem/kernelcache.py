@@ -27,7 +27,7 @@ from .atomic import write_bytes_atomic
 log = logging.getLogger(__name__)
 
 #: Bumped whenever a kernel's content or layout changes: old cache files are then ignored.
-KERNEL_FORMAT = 2
+KERNEL_FORMAT = 3
 
 
 def default_directory() -> Path:
@@ -128,12 +128,12 @@ class KernelStore:
 
 def resolve(cache) -> KernelStore:
     """A KernelStore from a door's ``cache`` argument: a KernelStore; a folder (one shared
-    store per folder); True or None for the default folder; False for a fresh memory-only
-    store (nothing is kept between calls)."""
+    store per folder); True or None for the default folder; False for the shared memory-only
+    store (nothing read from or written to disk)."""
     if isinstance(cache, KernelStore):
         return cache
     if cache is False:
-        return KernelStore(directory=False)
+        return _MEMORY_ONLY
     directory = default_directory() if cache is None or cache is True else Path(cache)
     if directory not in _STORES:
         _STORES[directory] = KernelStore(directory=directory)
@@ -141,3 +141,4 @@ def resolve(cache) -> KernelStore:
 
 
 _STORES: dict[Path, KernelStore] = {}  # one shared store (and memory) per folder
+_MEMORY_ONLY = KernelStore(directory=False)

@@ -149,13 +149,16 @@ def _axes(frequency, force_x, response_x):
 
 
 def _projection_sweep(guide: Waveguide, W: np.ndarray, f: np.ndarray, n_waves: int,
-                      tail: bool):
+                      tail: bool, forces: np.ndarray):
     """Per frequency, a list over the active families of (k, X, Xm, denom); the frozen
-    near-field tail (waves.frozen_tail) is projected once and appended at each frequency."""
+    near-field tail (waves.frozen_tail) is projected once and appended at each frequency.
+    A family is active when a force column (springs or loads, ``forces``) has a component
+    on it: a family no force excites adds nothing (e.g. the antisymmetric part of an
+    off-centre vertical sensor under vertical loads and spring pairs)."""
     fams = []
     for fam in FAMILIES:
         Wr = np.asarray(guide.families[fam].T.T @ W)
-        if not np.any(Wr != 0):
+        if not np.any(Wr[:, forces] != 0):
             continue
         comp = guide.families[fam].component
         Wm = np.where(comp == 0, -1.0, 1.0)[:, None] * Wr
@@ -221,7 +224,8 @@ def discrete_kernel(guide: Waveguide, springs: FootSprings, spring_x, frequency,
     rs = np.empty((nf, len(u_rs), n_o, n_p), dtype=complex)
     rP = np.empty((nf, len(u_rP), n_o), dtype=complex)
     Ls = spring_length
-    for i, sets in enumerate(_projection_sweep(guide, W, f, n_waves, tail)):
+    for i, sets in enumerate(_projection_sweep(guide, W, f, n_waves, tail,
+                                                   np.concatenate([S, P]))):
         ss[i] = _green(sets, S, S, u_ss, Ls, Ls).transpose(1, 0, 2)
         sP[i] = _green(sets, S, P, u_sP, load_length, Ls)[..., 0].T
         rs[i] = _green(sets, R, S, u_rs, Ls, response_length).transpose(1, 0, 2)
@@ -338,7 +342,8 @@ def periodic_kernel(guide: Waveguide, springs: FootSprings, row_offsets, spacing
     direct = np.empty((nf, n_o, len(rx), len(fx)), dtype=complex)
     Ls = spring_length
     m_ss, r_ss = _reduce(dss, d)
-    for i, sets in enumerate(_projection_sweep(guide, W, f, n_waves, tail)):
+    for i, sets in enumerate(_projection_sweep(guide, W, f, n_waves, tail,
+                                                   np.concatenate([S, P]))):
         L = _lattice(sets, S, S, r_ss, d, theta, Ls, Ls)
         L = L * np.exp(1j * np.outer(theta, m_ss))[:, None, :, None]  # (t, p, r r', p')
         ss[i] = L.reshape(n_theta, n_p, n_r, n_r, n_p).transpose(0, 2, 1, 3, 4).reshape(

@@ -16,7 +16,8 @@ HEAVY = ("gmsh", "pyvista", "vtk", "vtkmodules", "matplotlib")
 CORE = ("railfem", "railfem.profiles", "railfem.meshing", "railfem.forms", "railfem.waveguide",
         "railfem.waves", "railfem.section", "railfem.mobility", "railfem.supports",
         "railfem.beams", "railfem.frf", "railfem.standards", "railfem.standards.en15461",
-        "railfem.standards.iec61260")
+        "railfem.standards.iec61260", "railfem.spec", "railfem.models",
+        "railfem.params", "railfem.coupling", "railfem.kernelcache", "railfem.atomic")
 EDGE = ("railfem.plotting", "railfem.rendering", "railfem.jobs", "railfem.cli")
 
 CHILD = """
@@ -55,3 +56,16 @@ def test_no_module_imports_gmsh_pyvista_or_matplotlib():
     assert result["offenders"] == {}, (
         "modules importing heavy libraries at import time (move the import into the "
         f"function that needs it): {result['offenders']}")
+
+
+def test_package_exposes_version_and_door():
+    """`import railfem` gives the version from the installed metadata (pyproject.toml is its
+    single source) and the door's names."""
+    from importlib.metadata import version
+
+    import railfem as rf
+
+    assert rf.__version__ == version("railfem")
+    for name in ("TrackSpec", "preset", "frf", "decay_rate", "head", "foot", "FRF",
+                 "ParameterSpace", "SupportParameters"):
+        assert name in rf.__all__ and hasattr(rf, name)
