@@ -71,6 +71,18 @@ def _add_profile(p: argparse.ArgumentParser, h_default: float | None = 10.0) -> 
                        help=f"element size in mm (default {h_default:g})")
 
 
+def _add_mesh_file(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--mesh", type=Path, default=None, metavar="FILE",
+                   help="use this section mesh instead of --profile/--h: a railfem .npz "
+                        "(railfem mesh) or any 2-D mesh file meshio reads (Gmsh .msh 2.2 / "
+                        "4.x, 3- or 6-node triangles); symmetry is detected")
+    p.add_argument("--mesh-units", choices=("m", "mm"), default=None,
+                   help="length unit of a --mesh file that is not .npz (required for those)")
+    p.add_argument("--mesh-axes", default="xy", metavar="AXES",
+                   help="which axes of a --mesh file are lateral and vertical: 'xy' "
+                        "(default: x lateral, y vertical), 'xz', '-y,z', ...")
+
+
 # ------------------------------------------------------------------------- mesh
 def _mesh_args(p: argparse.ArgumentParser) -> None:
     _add_profile(p)
@@ -99,8 +111,7 @@ def _mesh_run(args) -> int:
 # ------------------------------------------------------------------- dispersion
 def _dispersion_args(p: argparse.ArgumentParser) -> None:
     _add_profile(p)
-    p.add_argument("--mesh", type=Path, default=None, metavar="FILE.npz",
-                   help="use this saved mesh (railfem mesh) instead of --profile/--h")
+    _add_mesh_file(p)
     g = p.add_argument_group("frequencies (k(omega), default) or wavenumbers (omega(k))")
     g.add_argument("--fmin", type=_positive, default=None, metavar="HZ",
                    help="lowest frequency in Hz (default 50)")
@@ -165,6 +176,7 @@ def _dispersion_run(args) -> int:
                   else args.render_frequency)
     paths = jobs.run_dispersion(args.profile, args.h * 1e-3, args.out, frequencies=frequencies,
                                 k_values=k_values, mesh_file=args.mesh,
+                                mesh_units=args.mesh_units, mesh_axes=args.mesh_axes,
                                 loss_factor=args.loss_factor, method=args.method,
                                 n_waves=args.n_waves, n_modes=args.n_modes,
                                 render_frequency=render)
@@ -280,8 +292,7 @@ def _finite(text: str) -> float:
 
 def _mobility_args(p: argparse.ArgumentParser) -> None:
     _add_profile(p)
-    p.add_argument("--mesh", type=Path, default=None, metavar="FILE.npz",
-                   help="use this saved mesh (railfem mesh) instead of --profile/--h")
+    _add_mesh_file(p)
     p.add_argument("--free", action="store_true",
                    help="free (unsupported) rail; the only model of this command, so it is "
                         "also the default")
@@ -327,7 +338,8 @@ def _mobility_run(args) -> int:
                                           responses=args.response, x=x,
                                           patch_width=args.patch_width,
                                           load_length=args.load_length, eta=args.eta,
-                                          mesh_file=args.mesh, method=args.method,
+                                          mesh_file=args.mesh, mesh_units=args.mesh_units,
+                                          mesh_axes=args.mesh_axes, method=args.method,
                                           n_waves=args.n_waves)
     sys.stdout.write(f"wrote {paths['csv']}\nwrote {paths['png']}\nwrote {paths['json']}\n")
     return 0

@@ -110,10 +110,20 @@ def _resolve_profile(profile) -> RailProfile:
     return get_profile(profile) if isinstance(profile, (str, os.PathLike)) else profile
 
 
-def load_or_mesh(profile, h: float, mesh_file=None) -> meshing.SectionMesh:
-    """The mesh from ``mesh_file`` if given, else the shipped mesh or a new Gmsh mesh."""
+def load_or_mesh(profile, h: float, mesh_file=None, *, mesh_units: str | None = None,
+                 mesh_axes: str = "xy") -> meshing.SectionMesh:
+    """The mesh from ``mesh_file`` if given, else the shipped mesh or a new Gmsh mesh.
+
+    A ``.npz`` file is a railfem mesh (:func:`railfem.meshing.load_mesh`); any other file
+    is read with meshio (:func:`railfem.meshing.read_mesh`) and needs ``mesh_units`` ('m'
+    or 'mm') and ``mesh_axes`` (file axes that are lateral and vertical, e.g. 'xy')."""
     if mesh_file is not None:
-        return meshing.load_mesh(mesh_file)
+        if Path(mesh_file).suffix.lower() == ".npz":
+            return meshing.load_mesh(mesh_file)
+        if mesh_units is None:
+            raise ValueError(f"mesh file {mesh_file}: give its length unit (--mesh-units m "
+                             "or mm; mesh_units= in Python)")
+        return meshing.read_mesh(mesh_file, units=mesh_units, axes=mesh_axes)
     return meshing.get_mesh(_resolve_profile(profile), h)
 
 
@@ -140,19 +150,22 @@ def mesh_quality(mesh: meshing.SectionMesh) -> dict:
     inradius = area / s
     circumradius = L.prod(axis=1) / (4 * area)
     aspect = circumradius / (2 * inradius)
-    edges = np.sort(np.vstack([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
-    n_edges = len(np.unique(edges, axis=0))
-    n_p2 = len(v) + n_edges
+    n_p2 = len(mesh.nodes)
 
     A, cz, Iy, Iz = section.moments(mesh)
     poly = polygon_properties(mesh.profile.outline)
     mesh_props = {"area": A, "centroid_z": cz, "I_y": Iy, "I_z": Iz}
+    straight = dict(zip(mesh_props, section.moments(mesh.straight())))
     vs_polygon = {k: float(val / getattr(poly, k) - 1) for k, val in mesh_props.items()}
     guide = waveguide.assemble(mesh)
     q = {
         "profile": mesh.profile.name,
         "profile_source": mesh.profile.source,
+        "mesh_source": mesh.source,
         "h_m": float(mesh.h),
+        "curved": bool(mesh.curved),
+        "max_midside_offset_m": mesh.midside_offset,
+        "min_jacobian_ratio": float(meshing.min_jacobian_ratio(mesh).min()),
         "n_vertices": int(len(v)),
         "n_triangles": int(len(t)),
         "n_p2_nodes": int(n_p2),
@@ -164,6 +177,7 @@ def mesh_quality(mesh: meshing.SectionMesh) -> dict:
         "mean_aspect_ratio": float(aspect.mean()),
         "edge_length_m": {"min": float(L.min()), "mean": float(L.mean()), "max": float(L.max())},
         "section_properties": {k: float(val) for k, val in mesh_props.items()},
+        "section_properties_straight_sided": {k: float(val) for k, val in straight.items()},
         "polygon_properties": {k: float(getattr(poly, k)) for k in mesh_props},
         "relative_error_vs_polygon": vs_polygon,
         "node_sets": {k: int(len(s_)) for k, s_ in guide.node_sets.items()},
@@ -171,6 +185,8 @@ def mesh_quality(mesh: meshing.SectionMesh) -> dict:
     if mesh.profile.name.upper() in ("60E1", "UIC60"):
         q["relative_error_vs_EN13674_1"] = {k: float(mesh_props[k] / EN13674_60E1[k] - 1)
                                             for k in EN13674_60E1}
+        q["relative_error_vs_EN13674_1_straight_sided"] = {
+            k: float(straight[k] / EN13674_60E1[k] - 1) for k in EN13674_60E1}
     try:
         import gmsh
 
@@ -184,6 +200,9 @@ def format_mesh_quality(q: dict) -> str:
     """Human-readable text of :func:`mesh_quality`."""
     lines = [
         f"mesh {q['profile']} at h = {q['h_m'] * 1e3:g} mm",
+        f"  {'curved' if q['curved'] else 'straight-sided'} 6-node triangles: mid-side nodes "
+        f"up to {q['max_midside_offset_m'] * 1e3:.3g} mm off the chords, smallest det J "
+        f"ratio {q['min_jacobian_ratio']:.3f}",
         f"  vertices {q['n_vertices']}, triangles {q['n_triangles']}, "
         f"P2 nodes {q['n_p2_nodes']}, DOFs {q['n_dofs']} "
         + "(" + ", ".join(f"{k} {n}" for k, n in q["n_dofs_family"].items()) + ")",
@@ -202,6 +221,9 @@ def format_mesh_quality(q: dict) -> str:
     if "relative_error_vs_EN13674_1" in q:
         lines.append("  vs EN 13674-1 60E1: " + ", ".join(
             f"{k} {err * 100:+.3f} %" for k, err in q["relative_error_vs_EN13674_1"].items()))
+        lines.append("  (straight-sided: " + ", ".join(
+            f"{k} {err * 100:+.3f} %"
+            for k, err in q["relative_error_vs_EN13674_1_straight_sided"].items()) + ")")
     lines.append("  node sets: " + ", ".join(f"{k} {n}" for k, n in q["node_sets"].items()))
     if "gmsh_version" in q:
         lines.append(f"  gmsh {q['gmsh_version']}")
@@ -263,7 +285,7 @@ def wave_shapes(guide: waveguide.Waveguide, frequency_hz: float, *, method: str 
 
     max_att = MAX_ATTENUATION if max_attenuation is None else max_attenuation
     out = []
-    for fam in waveguide.FAMILIES:
+    for fam in guide.families:
         ops = waves.FamilyOperators(guide, fam)
         w = waves.waves_at(ops, 2 * np.pi * frequency_hz, method=method, n_waves=n_waves)
         labels = label_waves(guide, ops, w)
@@ -310,8 +332,8 @@ def _csv_text(header: str, columns, rows) -> str:
 
 def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=None,
                    mesh_file=None, loss_factor: float = 0.0, method: str = "shift-invert",
-                   n_waves: int = 40, n_modes: int = 12,
-                   render_frequency: float | None = DEFAULT_RENDER_FREQUENCY,
+                   n_waves: int = 40, n_modes: int = 12, mesh_units: str | None = None,
+                   mesh_axes: str = "xy", render_frequency: float | None = DEFAULT_RENDER_FREQUENCY,
                    max_renders: int = 12, window_size=(800, 800), progress=None) -> dict:
     """Free-rail dispersion of ``profile`` meshed at ``h`` (m), written to ``out_dir``.
 
@@ -328,8 +350,10 @@ def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=Non
         raise ValueError("give either frequencies (Hz) or k_values (rad/m), not both/neither")
     out = Path(out_dir)
     material = Material.steel(loss_factor)
-    mesh = load_or_mesh(profile, h, mesh_file)
+    mesh = load_or_mesh(profile, h, mesh_file, mesh_units=mesh_units, mesh_axes=mesh_axes)
     guide = waveguide.assemble(mesh, material)
+    if frequencies is not None:
+        waveguide.check_resolution(guide, np.max(frequencies))
     log.info("dispersion of %s: %d DOFs (%s)", mesh.name, guide.n_dofs,
              ", ".join(f"{k} {f.T.shape[1]}" for k, f in guide.families.items()))
     paths = {}
@@ -349,19 +373,19 @@ def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=Non
         if np.any(~np.isfinite(k)) or np.any(k < 0):
             raise ValueError(f"wavenumbers must be finite and >= 0 rad/m, got {k[:3]}...")
         prog = progress or progress_logger("dispersion omega(k)")
-        freqs = {fam: np.zeros((len(k), n_modes)) for fam in waveguide.FAMILIES}
-        labs = {fam: np.empty((len(k), n_modes), dtype=object) for fam in waveguide.FAMILIES}
+        freqs = {fam: np.zeros((len(k), n_modes)) for fam in guide.families}
+        labs = {fam: np.empty((len(k), n_modes), dtype=object) for fam in guide.families}
         for i, kk in enumerate(k):
             res = waves.omega_of_k(guide, [kk], n_modes=n_modes)
             for fam, (fr, lb) in res.items():
                 freqs[fam][i], labs[fam][i] = fr[0], lb[0]
             prog(i + 1, len(k))
         rows = [(freqs[fam][i, j], j, fam, labs[fam][i, j], kk, 0.0, 1)
-                for i, kk in enumerate(k) for fam in waveguide.FAMILIES for j in range(n_modes)]
+                for i, kk in enumerate(k) for fam in guide.families for j in range(n_modes)]
         rows.sort(key=lambda r: (r[4], r[0]))
-        all_f = np.hstack([freqs[fam] for fam in waveguide.FAMILIES])
+        all_f = np.hstack([freqs[fam] for fam in guide.families])
         names = []
-        for fam in waveguide.FAMILIES:
+        for fam in guide.families:
             for j in range(n_modes):
                 vals, counts = np.unique(labs[fam][:, j].astype(str), return_counts=True)
                 names.append(f"{vals[np.argmax(counts)]} ({fam[:4]}.)")
@@ -389,7 +413,8 @@ def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=Non
     paths["renders"] = renders
     meta = {
         "profile": mesh.profile.name, "profile_source": mesh.profile.source, "mesh": mesh.name,
-        "h_m": mesh.h, "n_dofs": guide.n_dofs,
+        "mesh_source": mesh.source, "mesh_origin_m": list(mesh.origin), "curved": mesh.curved,
+        "h_m": mesh.h, "n_dofs": guide.n_dofs, "families": list(guide.families),
         "material": {"E": material.E, "nu": material.nu, "rho": material.rho,
                      "loss_factor": material.loss_factor},
         "mode": "k(omega)" if frequencies is not None else "omega(k)",
