@@ -198,6 +198,13 @@ def _convergence_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--reference", choices=("richardson", "finest"), default="richardson",
                    help="error reference: Richardson extrapolation of the three finest "
                         "meshes (default) or the finest mesh")
+    p.add_argument("--geometry", choices=("curved", "straight", "both"), default="curved",
+                   help="curved 6-node elements (mid-side nodes on the outline, default), "
+                        "their straight-sided twins, or both (straight in "
+                        "convergence_straight.*)")
+    p.add_argument("--shipped", action="store_true",
+                   help="use the shipped meshes (meshes/) where there is one for the size "
+                        "instead of meshing afresh")
     p.add_argument("--out", type=Path, default=Path("railfem-output/convergence"),
                    metavar="DIR", help="output folder (default railfem-output/convergence)")
 
@@ -207,16 +214,27 @@ def _convergence_run(args) -> int:
 
     sizes = np.array(args.sizes) * 1e-3
     paths = jobs.run_convergence(args.profile, sizes, args.out, frequencies=args.frequencies,
-                                 n_cut_on=args.n_cut_on, reference=args.reference)
-    st = paths["study"]
-    sys.stdout.write("h (mm)  DOFs   cut-on frequencies (Hz)\n")
-    for i, h in enumerate(st.sizes):
-        sys.stdout.write(f"{h * 1e3:6g} {st.n_dofs[i]:6d}  "
-                         + " ".join(f"{v:9.1f}" for v in st.cut_on[i]) + "\n")
-    sys.stdout.write("reference     " + " ".join(f"{v:9.1f}" for v in st.cut_on_reference)
-                     + f"  ({st.reference['cut_on']})\n")
-    sys.stdout.write("rate          " + " ".join(f"{v:9.2f}" for v in st.cut_on_rate) + "\n")
-    sys.stdout.write(f"wrote {paths['csv']}\nwrote {paths['png']}\nwrote {paths['json']}\n")
+                                 n_cut_on=args.n_cut_on, reference=args.reference,
+                                 geometry=args.geometry, use_shipped=args.shipped)
+    for suffix in ("", "_straight"):
+        if f"study{suffix}" not in paths:
+            continue
+        st = paths[f"study{suffix}"]
+        sys.stdout.write(f"{'curved' if st.curved else 'straight-sided'} 6-node elements\n"
+                         "h (mm)  DOFs   cut-on frequencies (Hz)\n")
+        for i, h in enumerate(st.sizes):
+            sys.stdout.write(f"{h * 1e3:6g} {st.n_dofs[i]:6d}  "
+                             + " ".join(f"{v:9.2f}" for v in st.cut_on[i]) + "\n")
+        sys.stdout.write("reference     " + " ".join(f"{v:9.2f}" for v in st.cut_on_reference)
+                         + f"  ({st.reference['cut_on']})\n")
+        sys.stdout.write("error finest  " + " ".join(f"{100 * v:8.4f}%" for v in
+                                                     st.cut_on_error[np.argmin(st.sizes)])
+                         + "\n")
+        sys.stdout.write("rate          " + " ".join(f"{v:9.2f}" for v in st.cut_on_rate) + "\n")
+        sys.stdout.write("Richardson p  " + " ".join(f"{v:9.2f}" for v in st.cut_on_order)
+                         + "\n")
+        sys.stdout.write(f"wrote {paths['csv' + suffix]}\nwrote {paths['png' + suffix]}\n"
+                         f"wrote {paths['json' + suffix]}\n")
     return 0
 
 

@@ -261,13 +261,25 @@ def _gmsh_p2(pts: np.ndarray, h: float, *, closed: bool) -> tuple[np.ndarray, np
         n = len(pts)
         tags = {}
 
+        runs = _curves(pts, closed)
+        # mesh size at each curve end: h, or the length of a shorter adjacent curve, so that
+        # a short curve (a small fillet) is one mesh edge and no triangle has all three
+        # corners on it (such ears come out nearly flat once their edges are curved)
+        size = {}
+        for _, run in runs:
+            q = pts[np.array(run) % n]
+            length = float(np.linalg.norm(np.diff(q, axis=0), axis=1).sum())
+            for i in (run[0] % n, run[-1] % n):
+                size[i] = min(size.get(i, h), max(length, 0.3 * h) if length < h else h)
+
         def point(i):
             if i % n not in tags:
-                tags[i % n] = geo.addPoint(pts[i % n, 0], pts[i % n, 1], 0.0, h)
+                tags[i % n] = geo.addPoint(pts[i % n, 0], pts[i % n, 1], 0.0,
+                                           size.get(i % n, h))
             return tags[i % n]
 
         curves = []
-        for kind, run in _curves(pts, closed):
+        for kind, run in runs:
             ids = [point(i) for i in run]
             curves.append(geo.addLine(*ids) if kind == "line" else geo.addSpline(ids))
         if not closed:

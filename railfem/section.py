@@ -97,3 +97,20 @@ def section_constants(mesh: SectionMesh) -> SectionConstants:
     return SectionConstants(area=A, centroid_z=cz, I_y=Iy, I_z=Iz, J=torsion_constant(mesh),
                             kappa_z=shear_coefficient(mesh, "z"),
                             kappa_y=shear_coefficient(mesh, "y"))
+
+
+def beam_section_from_mesh(mesh: SectionMesh, material=None, direction: str = "vertical"):
+    """Timoshenko ``BeamSection`` with the constants of the mesh: area, I and kappa of
+    vertical (I_y, kappa_z) or lateral (I_z, kappa_y) bending; material (default steel) gives
+    E, G, rho and the loss factor. The catalogue counterpart is
+    ``railfem.beams.catalogue_section``."""
+    from .beams import BeamSection
+    from .materials import Material
+
+    if direction not in ("vertical", "lateral"):
+        raise ValueError(f"direction must be 'vertical' or 'lateral', got {direction!r}")
+    A, _, Iy, Iz = moments(mesh)
+    vertical = direction == "vertical"
+    return BeamSection.from_material(material or Material.steel(), area=A,
+                                     I=Iy if vertical else Iz,
+                                     kappa=shear_coefficient(mesh, "z" if vertical else "y"))

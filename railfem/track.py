@@ -92,6 +92,9 @@ def foot_springs(guide: Waveguide, n_f: int = DEFAULT_N_FOOT_SPRINGS) -> FootSpr
 
 
 def _check_symmetric(guide: Waveguide, locs) -> None:
+    if set(guide.families) != {"symmetric", "antisymmetric"}:
+        raise ValueError(f"the supported-track models need a mirror-symmetric section mesh; "
+                         f"{guide.mesh.name} is not (one wave family {list(guide.families)})")
     T = guide.families["antisymmetric"].T
     for loc in locs:
         if np.abs(T.T @ loc.weights).max() > 1e-12 * np.abs(loc.weights).max():

@@ -197,9 +197,11 @@ def fourier_receptance(uhat, x, lengths, *, width=4.0, k_split=80.0, ratio=2.0,
 
 def test_residue_sum_equals_fourier_integral_over_real_k():
     """60E1 h = 20 mm, eta = 0.05 (smooth integrand), symmetric family. Measured worst
-    relative difference (dense | shift-invert + tail): 30 Hz 2.2e-6 | 8e-9, 1 kHz 1e-6 |
-    1e-6, 3 kHz 4e-6 | 4e-6, over x = 0 ... 1 m, point and box loads. (Before the dense
-    solver was put in inverted form it was off by 2.8e-3 at 30 Hz.)"""
+    relative difference (dense | shift-invert + tail) on the straight-sided mesh: 30 Hz
+    2.2e-6 | 8e-9, 1 kHz 1e-6 | 1e-6, 3 kHz 4e-6 | 4e-6, over x = 0 ... 1 m, point and box
+    loads; on the curved mesh the same except the dense point value at x = 0 (4.8e-4 of
+    the floor, see below). (Before the dense solver was put in inverted form it was off by
+    2.8e-3 at 30 Hz.)"""
     eta = 0.05
     g = rail(0.020, eta)
     locs = [mobility.head_patch(g, 0.02), mobility.point(g, "foot_sensor", "z"),
@@ -239,7 +241,12 @@ def test_residue_sum_equals_fourier_integral_over_real_k():
                 floor = 1e-3 * np.abs(a).max()
                 err = np.abs(u[L] - a) / np.maximum(np.abs(a), floor)
                 assert err[:, 1:].max() < 1e-4, (fi, L, method, err)
-                point_tol = 3e-3 if method == "shift-invert" else 1e-4
+                # at x = 0 (L = 0) the dense sum adds all ~750 waves; its round-off is
+                # ~5e-7 of the largest response, and the frozen tail of shift-invert is
+                # good to ~1e-5 of it: both show on the small lateral foot response
+                # (curved 20 mm mesh: 4.8e-4 and 7.2e-3 of the 1e-3 floor; straight-sided
+                # mesh: below 1e-4 and 3e-3)
+                point_tol = 1e-2 if method == "shift-invert" else 1e-3
                 assert err[:, 0].max() < point_tol, (fi, L, method, err)
 
 
@@ -362,21 +369,23 @@ def point_and_patch(h, f):
 
 
 def test_patch_point_receptance_converges_single_node_does_not():
-    """2 kHz, shipped 20 / 15 / 10 mm meshes. Measured successive relative changes: patch
-    2.0 %, 1.7 %; single node 15.5 %, 41 % (Re alpha 1.16, 1.38, 2.35 e-9 m/N)."""
-    h = (0.020, 0.015, 0.010)
+    """2 kHz, shipped curved 20 and 10 mm meshes (the head top of the 20 and 15 mm meshes
+    has the same nodes, so 15 mm says nothing here). Measured relative change: patch 1.7 %,
+    single node 87 % (Re alpha 1.38 -> 2.61 e-9 m/N). Straight-sided meshes (before curved
+    elements): patch 2.0 %, 1.7 %; single node 15.5 %, 41 % over 20 / 15 / 10 mm."""
+    h = (0.020, 0.010)
     vals = np.array([point_and_patch(hh, 2000.0) for hh in h])
-    d_patch = rel(vals[1:, 0], vals[:-1, 0])
-    d_node = rel(vals[1:, 1], vals[:-1, 1])
-    assert d_patch[1] < d_patch[0] < 0.03
-    assert np.all(d_node > 5 * d_patch) and d_node[1] > d_node[0]
-    assert np.all(np.diff(vals[:, 1].real) > 0)
+    d_patch = rel(vals[1, 0], vals[0, 0])
+    d_node = rel(vals[1, 1], vals[0, 1])
+    assert d_patch < 0.03
+    assert d_node > 10 * d_patch
+    assert vals[1, 1].real > 1.5 * vals[0, 1].real  # the single-node flexibility grows
 
 
 @pytest.mark.slow
 def test_patch_point_receptance_fine_meshes():
-    """10 / 7.5 / 5 mm (about 130 s). Measured: patch changes 0.40 %, 0.47 %; single node
-    22 %, 37 %."""
+    """10 / 7.5 / 5 mm (about 130 s alone). Measured on the curved meshes: patch changes
+    0.03 %, 0.35 %; single node 16 %, 50 % (straight-sided: 0.40 %, 0.47 %; 22 %, 37 %)."""
     h = (0.010, 0.0075, 0.005)
     vals = np.array([point_and_patch(hh, 2000.0) for hh in h])
     assert rel(vals[1:, 0], vals[:-1, 0]).max() < 0.01
@@ -385,19 +394,25 @@ def test_patch_point_receptance_fine_meshes():
 
 def test_patch_loads_integrate_the_traction_exactly():
     """Consistent P2 loads of a uniform traction over [yc - w/2, yc + w/2] reproduce its
-    resultant and its first and second moments in y exactly (edges partly covered too)."""
+    resultant and first moment in y exactly (edges partly covered too), on curved edges
+    (y(t) quadratic along the edge, as the geometry is interpolated) and straight ones. The
+    second moment is exact on straight edges (y^2 is then in the P2 space); on curved edges
+    y^2 is quartic and is reproduced to its interpolation error (measured <= 0.2 %)."""
     for h in (0.020, 0.010):
-        g = rail(h, 0.01)
-        top = g.nodes[g.node("head_top")]
-        for w in (0.01, 0.02, 0.03):
-            for yc in (0.0, 0.004):
-                loc = mobility.surface_patch(g, (top[0] + yc, top[1]), w)
-                nodes = np.nonzero(loc.weights[g.node_dofs[:, 2]])[0]
-                p = loc.weights[g.node_dofs[nodes, 2]]
-                y = g.nodes[nodes, 0] - (top[0] + yc)
-                assert p.sum() == pytest.approx(1.0, abs=1e-12)
-                assert (p * y).sum() == pytest.approx(0.0, abs=1e-12)
-                assert (p * y * y).sum() == pytest.approx(w * w / 12, rel=1e-10)
+        curved = rail(h, 0.01)
+        straight = waveguide.assemble(curved.mesh.straight(), curved.material)
+        for g in (curved, straight):
+            top = g.nodes[g.node("head_top")]
+            for w in (0.01, 0.02, 0.03):
+                for yc in (0.0, 0.004):
+                    loc = mobility.surface_patch(g, (top[0] + yc, top[1]), w)
+                    nodes = np.nonzero(loc.weights[g.node_dofs[:, 2]])[0]
+                    p = loc.weights[g.node_dofs[nodes, 2]]
+                    y = g.nodes[nodes, 0] - (top[0] + yc)
+                    assert p.sum() == pytest.approx(1.0, abs=1e-12)
+                    assert (p * y).sum() == pytest.approx(0.0, abs=1e-12)
+                    tol = 1e-10 if g is straight else 5e-3
+                    assert (p * y * y).sum() == pytest.approx(w * w / 12, rel=tol)
 
 
 # -------------------------------------------------------------- (f) bad input
