@@ -70,3 +70,22 @@ def test_curved_cut_ons_against_an_independent_fine_mesh(studies):
     assert out[True] >= 3.5 and out[False] < 2.5
     i5 = SHIPPED.index(0.005)
     assert np.abs(studies[True].cut_on[i5] / fine - 1).max() < 6e-4
+
+
+def test_convergence_command_compares_curved_and_straight(tmp_path, capsys):
+    import json
+
+    from railfem import cli
+
+    out = tmp_path / "conv"
+    assert cli.main(["-q", "convergence", "--sizes", "20", "15", "10", "--shipped",
+                     "--geometry", "both", "--n-cut-on", "3", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "curved 6-node" in text and "straight-sided 6-node" in text
+    curved = json.loads((out / "convergence.json").read_text())
+    straight = json.loads((out / "convergence_straight.json").read_text())
+    assert curved["curved"] and not straight["curved"]
+    assert (out / "convergence_straight.csv").exists() and (out / "convergence.png").exists()
+    # same triangulations, so the same DOFs; the straight sides raise every cut-on
+    assert curved["n_dofs"] == straight["n_dofs"]
+    assert np.all(np.array(straight["cut_on"]) > np.array(curved["cut_on"]))

@@ -530,3 +530,34 @@ def test_mobility_command_input_errors(tmp_path, capsys):
     np.testing.assert_allclose(cli._frequency_spec(["50:8000:3"]), [50, 632.455532, 8000])
     with pytest.raises(SystemExit):
         cli.main(base + ["--load-length", "-0.01"])
+
+
+# ----------------------------------------------------- library defaults, validity
+def test_free_mobility_default_is_the_converged_load_length():
+    """The library default load length is the CLI's 20 mm (it was 0: a load on one
+    cross-section, whose point mobility does not converge with the mesh); 0 must be asked
+    for explicitly."""
+    g = rail(0.020, 0.01)
+    hp = mobility.head_patch(g, 0.02)
+    f = [2000.0]
+    default = mobility.free_mobility(g, f, hp, [hp], [0.0]).values
+    spread = mobility.free_mobility(g, f, hp, [hp], [0.0], load_length=0.02).values
+    point = mobility.free_mobility(g, f, hp, [hp], [0.0], load_length=0.0).values
+    np.testing.assert_allclose(default, spread, rtol=1e-8)  # ARPACK start vector
+    assert rel(point, spread).max() > 0.05
+    assert mobility.DEFAULT_LOAD_LENGTH == 0.02
+
+
+def test_under_resolved_frequency_is_flagged(caplog):
+    """Fewer than 6 elements per Rayleigh wavelength: a warning naming the limit. The
+    20 mm mesh (longest edge 19 mm) holds 6 up to about 26 kHz."""
+    g = rail(0.020, 0.01)
+    n = waveguide.elements_per_wavelength(g, 5000.0)
+    assert 25 < n < 40
+    hp = mobility.head_patch(g, 0.02)
+    with caplog.at_level("WARNING", logger="railfem"):
+        mobility.free_receptance(g, [5000.0], [hp], [hp], [0.3])
+    assert not caplog.records
+    with caplog.at_level("WARNING", logger="railfem"):
+        mobility.free_receptance(g, [1e5], [hp], [hp], [0.3], n_waves=10)
+    assert any("elements per shortest" in r.getMessage() for r in caplog.records)
