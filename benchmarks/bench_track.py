@@ -1,75 +1,117 @@
-"""Benchmark of the supported WFE track: a full 1/9-octave sweep (30 points per decade,
-50 Hz - 8 kHz) of the site track, head and foot responses at the 29 EN 15461 positions for
-every force position at 0.1 m steps in a span.
+"""Benchmark of the supported track through the model door (railfem.models).
 
-    python benchmarks/bench_track.py [--h 10] [--threads 1] [--out benchmarks/results_track.txt]
+    python benchmarks/bench_track.py [--threads 1] [--no-job] [--out benchmarks/results_track.txt]
 
-Rows: the discrete model (131 supports x 8 foot springs, the baseline), the same with 261
-supports, and the infinite periodic model (Floquet, 512 angles); time, time per frequency,
-peak resident memory growth and the ratio to the baseline, all measured in this run.
+Problem: the site track of METHOD.md Table 1, 60E1 h = 10 mm, the 69 frequencies of the
+1/9-octave grid 50 Hz - 8 kHz, the 29 EN 15461 hammer positions, head and foot sensor.
+Per model: the direct solve of railfem before the kernel + coupling split (the frozen copy
+in tests/reference/track_4bb7c79.py, the baseline), the first evaluation through the door
+(cold kernel cache: waves, Green's functions and coupling), and a re-evaluation with new
+pad and ballast parameters (the kernel from memory, the coupling solve only). Then the
+main job ``railfem track --preset site`` for wfe-discrete and wfe-periodic (cold cache, in
+a subprocess, wall time). All measured in this run; ratios to the baseline.
 """
 from __future__ import annotations
 
 import argparse
+import os
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
 from _common import limit_threads, machine_lines
 
+ROOT = Path(__file__).resolve().parents[1]
+
 
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--h", type=float, default=10.0, help="element size in mm (default 10)")
     p.add_argument("--threads", type=int, default=1, help="BLAS threads (default 1)")
+    p.add_argument("--no-job", action="store_true", help="skip the two main-job runs")
     p.add_argument("--out", type=Path, default=Path(__file__).with_name("results_track.txt"))
     args = p.parse_args(argv)
     limit_threads(args.threads)
-    import resource
-
+    sys.path.insert(0, str(ROOT))
     import numpy as np
 
-    from railfem import meshing, mobility, supports, track, waveguide
-    from railfem.materials import Material
-    from railfem.standards import en15461, iec61260
+    import railfem as rf
+    from railfem import beams, models, supports
+    from railfem.kernelcache import KernelStore
+    from railfem.standards import iec61260
+    from tests.reference import track_4bb7c79 as ref
 
-    tp = supports.preset("site")
-    mesh = meshing.get_mesh("60E1", args.h * 1e-3)
-    guide = waveguide.assemble(mesh, Material.steel(tp.eta_r))
-    load = mobility.head_patch(guide, 0.02)
-    outs = [mobility.point(guide, "head_top"), mobility.point(guide, "foot_sensor")]
     f = iec61260.ninth_octave_grid(50, 8000)
-    fx = np.round(np.arange(0, tp.spacing + 1e-9, 0.1), 10)
-    rx = tp.spacing / 2 + en15461.hammer_positions(tp.spacing)
-    runs = {
-        "discrete, 131 supports": lambda: track.discrete_receptance(
-            guide, supports.uniform_layout(tp.support, tp.spacing, 131), f, load=load,
-            outputs=outs, force_x=fx, response_x=rx),
-        "discrete, 261 supports": lambda: track.discrete_receptance(
-            guide, supports.uniform_layout(tp.support, tp.spacing, 261), f, load=load,
-            outputs=outs, force_x=fx, response_x=rx),
-        "periodic (Floquet)": lambda: track.periodic_receptance(
-            guide, tp.support, tp.spacing, f, load=load, outputs=outs, force_x=fx,
-            response_x=rx),
-    }
-    lines = ["# railfem supported-track benchmark", *machine_lines(args.threads),
-             f"# 60E1 h = {args.h:g} mm, {guide.n_dofs} DOFs "
-             f"({guide.families['symmetric'].T.shape[1]} in the symmetric family solved), "
-             f"{len(f)} frequencies, {len(fx)} force x {len(rx)} response positions x 2 outputs",
-             f"{'model':<26}{'time (s)':>10}{'s/freq':>9}{'peak RSS +MB':>14}{'ratio':>8}"]
-    base = None
-    for name, run in runs.items():
-        rss0 = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    lines = ["# railfem supported-track benchmark (model door)", *machine_lines(args.threads),
+             f"# site track, 60E1 h = 10 mm, {len(f)} frequencies, 29 EN 15461 positions, "
+             "head and foot; times in s",
+             f"{'model':<22}{'baseline':>10}{'first':>9}{'re-eval':>9}{'first/base':>12}"
+             f"{'re-eval/base':>14}{'max |diff|/max':>16}"]
+    sys.stdout.write("\n".join(lines) + "\n")
+    new_params = dict(kp=300e6, eta_p=0.15, kb=60e6, eta_b=0.8)
+    for model in ("wfe-discrete", "wfe-periodic", "timoshenko-discrete"):
+        spec = rf.preset("site", model=model)
+        xs, pos, hx = models.hammer_x(spec)
         t0 = time.perf_counter()
-        run()
-        dt = time.perf_counter() - t0
-        rss = (resource.getrusage(resource.RUSAGE_SELF).ru_maxrss - rss0) / 1024
-        base = base or dt
-        lines.append(f"{name:<26}{dt:>10.1f}{dt / len(f):>9.2f}{rss:>14.0f}{dt / base:>8.2f}")
+        old = _baseline(ref, spec, f, hx, xs, np, beams, supports, models)
+        t_base = time.perf_counter() - t0
+        with tempfile.TemporaryDirectory() as cache:
+            store = KernelStore(directory=cache)
+            t0 = time.perf_counter()
+            new = models.receptance(spec, f, hx, [xs], cache=store)
+            t_first = time.perf_counter() - t0
+            t0 = time.perf_counter()
+            models.receptance(spec.replace(**new_params), f, hx, [xs], cache=store)
+            t_re = time.perf_counter() - t0
+        diff = np.abs(new - old).max() / np.abs(old).max()
+        lines.append(f"{model:<22}{t_base:>10.2f}{t_first:>9.2f}{t_re:>9.3f}"
+                     f"{t_first / t_base:>12.2f}{t_re / t_base:>14.4f}{diff:>16.1e}")
         sys.stdout.write(lines[-1] + "\n")
+    if not args.no_job:
+        lines.append("# main job, `railfem track --preset site --model M` (cold kernel cache, "
+                     "subprocess wall time incl. imports and plots)")
+        base = None
+        for model in ("wfe-discrete", "wfe-periodic"):
+            with tempfile.TemporaryDirectory() as tmp:
+                env = dict(os.environ, PYTHONPATH=str(ROOT), RAILFEM_CACHE=f"{tmp}/cache")
+                t0 = time.perf_counter()
+                subprocess.run([sys.executable, "-m", "railfem.cli", "-q", "track", "--preset",
+                                "site", "--model", model, "--out", f"{tmp}/out"], env=env,
+                               check=True, capture_output=True)
+                dt = time.perf_counter() - t0
+            base = base or dt
+            lines.append(f"job {model:<18}{dt:>10.1f} s   ratio to wfe-discrete {dt / base:.2f}")
+            sys.stdout.write(lines[-1] + "\n")
     text = "\n".join(lines) + "\n"
     args.out.write_text(text)
     sys.stdout.write(text)
+
+
+def _baseline(ref, spec, f, hx, xs, np, beams, supports, models):
+    """Receptance (nf, 2, 1, 29) by the pre-split direct solves (re-centred like the job)."""
+    d = spec.spacing
+    if spec.model == "wfe-periodic":
+        rail = models.wfe_rail(spec.rail, spec.numerics.patch_width, 8)
+        outs = [rail.outputs["head"], rail.outputs["foot"]]
+        return ref.periodic_receptance(rail.guide, spec.support, d, f, load=rail.load,
+                                       outputs=outs, force_x=hx, response_x=[xs])
+    rx = np.array([xs])
+    c = np.round((rx[:, None] + hx[None, :]) / (2 * d)) * d
+    uf, jf = np.unique(np.round(hx[None, :] - c, 10), return_inverse=True)
+    ur, jr = np.unique(np.round(rx[:, None] - c, 10), return_inverse=True)
+    jf, jr = jf.reshape(c.shape), jr.reshape(c.shape)
+    lay = supports.uniform_layout(spec.support, d, 131)
+    if spec.model == "timoshenko-discrete":
+        bs = models.beam_section(spec.rail)
+        a = ref.discrete_track_receptance(bs, lay, 2 * np.pi * f, uf, ur)
+        a = np.repeat(np.asarray(a)[:, None], 2, axis=1)
+    else:
+        rail = models.wfe_rail(spec.rail, spec.numerics.patch_width, 8)
+        outs = [rail.outputs["head"], rail.outputs["foot"]]
+        a = ref.discrete_receptance(rail.guide, lay, f, load=rail.load, outputs=outs,
+                                    force_x=uf, response_x=ur)
+    return a[:, :, jr, jf]
 
 
 if __name__ == "__main__":

@@ -70,6 +70,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .coupling import DiscreteKernel, couple_discrete, unique_separations
+from .mobility import residue_sum
 from .supports import SupportLayout, SupportParameters, continuous_stiffness
 
 log = logging.getLogger(__name__)
@@ -334,56 +336,61 @@ def continuous_track_receptance(section: BeamSection, support_params: SupportPar
     return supported_beam_receptance(section, w, x, s)
 
 
-def discrete_track_receptance(section: BeamSection, layout: SupportLayout, omega, force_x,
-                              response_x) -> np.ndarray:
-    """Receptance (m/N) of an infinite beam on the discrete supports of ``layout``.
+def discrete_kernel(section: BeamSection, spring_x, omega, force_x, response_x, *,
+                    spring_length: float = 0.0, load_length: float = 0.0,
+                    response_length: float = 0.0) -> DiscreteKernel:
+    """The parameter-free part of the beam on discrete supports (railfem.coupling): free-beam
+    receptances between the springs at ``spring_x``, the loads at ``force_x`` and the
+    responses at ``response_x`` (m), at each omega (rad/s, 1-D).
 
-    Unit vertical force at each of ``force_x`` (m), response at each of ``response_x`` (m).
-    Result shape (n_freq,) + shape(response_x) + shape(force_x) for 1-D or scalar omega.
-    Compatibility equation of the module docstring with the free-beam Green's function; every
-    support (and every row of a spread support) has its own K_s.
-    """
+    Springs spread their force over ``spring_length``, loads over ``load_length`` and
+    responses are averaged over ``response_length`` (m), with the same closed-form box
+    smoothing as the WFE rail (railfem.mobility.residue_sum); 0 is a point."""
     w = np.atleast_1d(_as_omega(omega, allow_zero=False))
     if w.ndim != 1:
         raise ValueError("omega must be a scalar or 1-D array (rad/s)")
+    xs, fx, rx = (np.atleast_1d(np.asarray(v, dtype=float)).reshape(-1)
+                  for v in (spring_x, force_x, response_x))
+    k, res = _waves(section, w, 0.0)
+    u_ss, i_ss = unique_separations(xs[:, None] - xs[None, :])
+    u_sP, i_sP = unique_separations(xs[:, None] - fx[None, :])
+    u_rs, i_rs = unique_separations(rx[:, None] - xs[None, :])
+    u_rP, i_rP = unique_separations(rx[:, None] - fx[None, :])
+    log.debug("beam discrete kernel: %d frequencies, %d springs, %d forces, %d responses",
+              w.size, xs.size, fx.size, rx.size)
+    one = np.ones((1, 2))
+    parts = {"ss": (u_ss, spring_length, spring_length), "sP": (u_sP, load_length, spring_length),
+             "rs": (u_rs, spring_length, response_length),
+             "rP": (u_rP, load_length, response_length)}
+    g = {name: np.empty((w.size, len(u), 1, 1), dtype=complex) for name, (u, _, _) in parts.items()}
+    for i in range(w.size):
+        # the beam is its own mirror image: forward and backward terms carry the residues
+        terms = (one, res[i][:, None], one, res[i][:, None])
+        for name, (u, Lf, Lr) in parts.items():
+            g[name][i] = residue_sum(terms, k[i], u, Lf, Lr).transpose(1, 0, 2)
+    return DiscreteKernel(frequency=w / (2 * np.pi), spring_weight=np.ones(1), spring_x=xs, ss=g["ss"],
+                          ss_sep=u_ss, ss_index=i_ss, sP=g["sP"][..., 0], sP_index=i_sP,
+                          rs=g["rs"],
+                          rs_index=i_rs, rP=g["rP"][..., 0], rP_index=i_rP)
+
+
+def discrete_track_receptance(section: BeamSection, layout: SupportLayout, omega, force_x,
+                              response_x, *, load_length: float = 0.0) -> np.ndarray:
+    """Receptance (m/N) of an infinite beam on the discrete supports of ``layout``.
+
+    Unit vertical force at each of ``force_x`` (m), spread over ``load_length`` (m, default
+    a point), response at each of ``response_x`` (m). Result shape (n_freq,) +
+    shape(response_x) + shape(force_x) for 1-D or scalar omega. Compatibility equation of
+    the module docstring with the free-beam Green's function (``discrete_kernel`` then
+    ``coupling.couple_discrete``); every support (and every row of a spread support) has
+    its own K_s, and a pad spreads each row's force over its slice of the pad length.
+    """
     fx = np.asarray(force_x, dtype=float)
     rx = np.asarray(response_x, dtype=float)
-    f1, r1 = fx.reshape(-1), rx.reshape(-1)
-    xs = layout.springs().x
-    ns, nf_, nr = xs.size, f1.size, r1.size
-    K = layout.spring_stiffness(w)  # (n_freq, ns)
-    k, res = _waves(section, w, 0.0)
-    # The Green's function depends on |x_a - x_b| only: evaluate it once per distinct
-    # distance (few for equally spaced supports) instead of once per matrix entry.
-    # Rounding to 1e-12 m merges round-off duplicates and changes nothing physically.
-    blocks = (xs[:, None] - xs[None, :], xs[:, None] - f1[None, :],
-              r1[:, None] - f1[None, :], r1[:, None] - xs[None, :])
-    dist = np.concatenate([np.round(np.abs(b), 12).ravel() for b in blocks])
-    uniq, inv = np.unique(dist, return_inverse=True)
-    cuts = np.cumsum([0] + [b.size for b in blocks])
-    i_ff, i_fp, i_rp, i_rf = (inv[cuts[j]:cuts[j + 1]].reshape(blocks[j].shape)
-                              for j in range(4))
-    log.debug("discrete track: %d frequencies, %d springs, %d forces, %d responses, "
-              "%d distinct distances", w.size, ns, nf_, nr, uniq.size)
-    out = np.empty((w.size, nr, nf_), dtype=complex)
-    eye = np.eye(ns)
-    chunk = max(1, int(2e6 // max(uniq.size, ns * ns)))  # bound memory per batch
-    for lo in range(0, w.size, chunk):
-        sl = slice(lo, lo + chunk)
-        g = _green(k[sl], res[sl], uniq)  # (n_chunk, n_distinct)
-        a_ff, a_fp = g[:, i_ff], g[:, i_fp]
-        Kc = K[sl][:, :, None]
-        # Row scaling keeps both K = 0 (no support) and K = inf (rigid) well conditioned:
-        # rows with |K alpha(0)| <= 1 read (1 + K A) F = K a, the others (1/K + A) F = a.
-        # uniq[0] = 0 (the diagonal of the spring block), so g[:, 0] is the point receptance.
-        finite = np.isfinite(Kc)
-        k_fin = np.where(finite, Kc, 0.0)
-        stiff = finite & (np.abs(k_fin * g[:, :1, None]) <= 1)
-        comp = np.where(stiff | ~finite, 0.0, 1.0 / np.where(stiff | ~finite, 1.0, k_fin))
-        lhs = np.where(stiff, eye + k_fin * a_ff, a_ff + comp * eye)
-        rhs = np.where(stiff, k_fin * a_fp, a_fp)
-        forces = np.linalg.solve(lhs, rhs)  # force on each spring per unit load
-        out[sl] = g[:, i_rp] - g[:, i_rf] @ forces
+    kernel = discrete_kernel(section, layout.springs().x, omega, fx, rx,
+                             spring_length=layout.row_length, load_length=load_length)
+    w = 2 * np.pi * kernel.frequency
+    out = couple_discrete(kernel, layout.spring_stiffness(w))[:, 0]
     return out.reshape((w.size,) + rx.shape + fx.shape)
 
 
@@ -424,7 +431,8 @@ def pinned_pinned_frequency(section: BeamSection, spacing: float, mode: int = 1)
 
 __all__ = [
     "BeamSection", "shear_coefficient", "timoshenko_wavenumbers", "free_beam_receptance",
-    "supported_beam_receptance", "continuous_track_receptance", "discrete_track_receptance",
+    "supported_beam_receptance", "continuous_track_receptance", "discrete_kernel",
+    "discrete_track_receptance",
     "receptance_to_mobility", "pinned_pinned_frequency", "UIC60_KAPPA_VERTICAL", "UIC60_AREA",
     "UIC60_I_VERTICAL", "UIC60_I_LATERAL",
 ]

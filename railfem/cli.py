@@ -6,6 +6,8 @@
     railfem dispersion --k-range 0.1 30 60 --out DIR        omega(k) instead of k(omega)
     railfem convergence --profile 60E1 --sizes 20 15 10 7.5 5 --frequencies 1000 --out DIR
     railfem mobility --free --freq 50:8000:60 --response head foot_sensor --x 0 0.3 --out DIR
+    railfem passby --preset site --speed-kmh 216 --wheel flexible --signal --out DIR
+    railfem tdr passby run1.npz run2.wav --out DIR          pass-by decay rates
 
 Lengths on the command line are in mm (element sizes), frequencies in Hz, wavenumbers in
 rad/m. Each subcommand parses its arguments and calls one function of
@@ -20,6 +22,7 @@ import argparse
 import logging
 import os
 import sys
+import threading
 from pathlib import Path
 
 # The solvers work on many small dense and sparse matrices, where threaded BLAS only
@@ -29,6 +32,8 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import numpy as np  # noqa: E402
+
+from . import __version__  # noqa: E402
 
 log = logging.getLogger("railfem.cli")
 
@@ -239,37 +244,188 @@ def _convergence_run(args) -> int:
 
 
 def _track_args(p: argparse.ArgumentParser) -> None:
-    from .supports import PRESETS
-    from .trackjob import MODELS
+    from .spec import MODELS, PRESETS
 
-    _add_profile(p)
-    p.add_argument("--preset", choices=sorted(PRESETS), default="site",
+    p.add_argument("--profile", default=None,
+                   help="'60E1' (= UIC60, default), 'rect:WIDTHxHEIGHT' in mm, or the path "
+                        "of an outline CSV (y,z in mm, counter-clockwise, foot at z = 0)")
+    p.add_argument("--h", type=_positive, default=None, metavar="MM",
+                   help="element size in mm, 0.5 to 100 (default 10)")
+    p.add_argument("--preset", choices=sorted(PRESETS), default=None,
                    help="track parameter set of METHOD.md Table 1 (default site)")
-    p.add_argument("--model", choices=MODELS, default="wfe-discrete",
+    p.add_argument("--config", type=Path, default=None, metavar="FILE",
+                   help="track spec and job settings from a TOML file or from a run.json of "
+                        "an earlier run (its 'config' section); options given here override "
+                        "it, it overrides the preset")
+    p.add_argument("--from-run", type=Path, default=None, metavar="DIR",
+                   help="repeat the run whose outputs are in DIR (same as --config "
+                        "DIR/run.json)")
+    p.add_argument("--model", choices=MODELS, default=None,
                    help="track model (default wfe-discrete)")
-    p.add_argument("--f-low", type=_positive, default=50.0, help="lowest band (Hz)")
-    p.add_argument("--f-high", type=_positive, default=8000.0, help="highest band (Hz)")
-    p.add_argument("--n-supports", type=_count, default=131,
-                   help="discrete supports centred on the sensor span (default 131)")
-    p.add_argument("--pad-length", type=_non_negative, default=0.0, metavar="M",
-                   help="pad length along the rail (m); 0 = point supports (default)")
-    p.add_argument("--n-rows", type=_count, default=1, help="spring rows per pad")
-    p.add_argument("--n-foot-springs", type=_count, default=8,
+    g = p.add_argument_group("track parameters (override the preset and the config)")
+    g.add_argument("--kp", type=_non_negative, default=None, metavar="MN/m",
+                   help="rail pad stiffness per fastener, MN/m")
+    g.add_argument("--eta-p", type=_non_negative, default=None, metavar="ETA",
+                   help="rail pad loss factor (-)")
+    g.add_argument("--kb", type=_non_negative, default=None, metavar="MN/m",
+                   help="ballast stiffness per fastener and rail, MN/m")
+    g.add_argument("--eta-b", type=_non_negative, default=None, metavar="ETA",
+                   help="ballast loss factor (-)")
+    g.add_argument("--ms", type=_non_negative, default=None, metavar="KG",
+                   help="sleeper mass per rail, kg")
+    g.add_argument("--eta-r", type=_non_negative, default=None, metavar="ETA",
+                   help="rail loss factor (-)")
+    g.add_argument("--spacing", type=_positive, default=None, metavar="MM",
+                   help="sleeper spacing, mm (Table 1: 600)")
+    g.add_argument("--pad-length", type=_non_negative, default=None, metavar="MM",
+                   help="pad length along the rail, mm; 0 = point supports (default)")
+    g.add_argument("--n-rows", type=_count, default=None, help="spring rows per pad")
+    g.add_argument("--n-supports", type=_count, default=None,
+                   help="supports of the discrete models (default 131)")
+    g.add_argument("--n-foot-springs", type=_count, default=None,
                    help="springs across the rail foot (default 8)")
+    j = p.add_argument_group("job")
+    j.add_argument("--f-low", type=_positive, default=None, metavar="HZ",
+                   help="lowest band (Hz, default 50)")
+    j.add_argument("--f-high", type=_positive, default=None, metavar="HZ",
+                   help="highest band (Hz, default 8000)")
+    j.add_argument("--cache-dir", type=Path, default=None, metavar="DIR",
+                   help="folder of the kernel cache (default $RAILFEM_CACHE or "
+                        "~/.cache/railfem)")
+    j.add_argument("--no-cache", action="store_true",
+                   help="keep kernels in memory only (nothing read from or written to disk)")
     p.add_argument("--out", type=Path, default=Path("railfem-output/track"), metavar="DIR",
                    help="output folder (default railfem-output/track)")
+
+
+def _mm(name: str, value: float | None, low: float, high: float, example: str):
+    """A length given in mm on the command line, checked against a sane range, in m."""
+    if value is None:
+        return None
+    if value != 0 and not low <= value <= high:
+        raise BadInput(f"{name} {value:g} mm: lengths on this command line are in mm; give "
+                       f"a value between {low:g} and {high:g} mm (e.g. {example})")
+    return value * 1e-3
+
+
+def track_spec_from_args(args):
+    """(TrackSpec, JobSettings) from the track options: preset < config < options."""
+    from dataclasses import replace
+
+    from .spec import preset, spec_from_dict
+    from .trackjob import job_from_dict, read_config
+
+    if args.config is not None and args.from_run is not None:
+        raise BadInput("give either --config or --from-run, not both")
+    h = _mm("--h", args.h, 0.5, 100.0, "10")
+    spacing = _mm("--spacing", args.spacing, 100.0, 2000.0, "600")
+    pad = _mm("--pad-length", args.pad_length, 1.0, 1000.0, "150")
+    source = args.config if args.config is not None else args.from_run
+    spec_d, job_d = read_config(source) if source is not None else ({}, {})
+    if args.preset:  # an explicit --preset is the base, whatever the config names
+        spec_d = {k: x for k, x in spec_d.items() if k != "preset"}
+    spec = spec_from_dict(spec_d, base=preset(args.preset) if args.preset else None)
+    job = job_from_dict(job_d)
+    sup = {k: x for k, x in (("kp", args.kp), ("kb", args.kb)) if x is not None}
+    sup = {k: x * 1e6 for k, x in sup.items()}
+    sup.update({k: x for k, x in (("eta_p", args.eta_p), ("eta_b", args.eta_b),
+                                  ("ms", args.ms)) if x is not None})
+    rail = {k: x for k, x in (("profile", args.profile), ("h", h), ("eta", args.eta_r))
+            if x is not None}
+    top = {k: x for k, x in (("model", args.model), ("spacing", spacing), ("pad_length", pad),
+                             ("n_rows", args.n_rows), ("n_supports", args.n_supports))
+           if x is not None}
+    if sup:
+        top["support"] = replace(spec.support, **sup)
+    if rail:
+        top["rail"] = replace(spec.rail, **rail)
+    if args.n_foot_springs is not None:
+        top["numerics"] = replace(spec.numerics, n_foot_springs=args.n_foot_springs)
+    spec = replace(spec, **top)
+    jobs = {k: x for k, x in (("f_low", args.f_low), ("f_high", args.f_high)) if x is not None}
+    return spec, replace(job, **jobs)
 
 
 def _track_run(args) -> int:
     from .trackjob import run_track
 
-    s = run_track(args.preset, args.model, args.out, profile=args.profile, h=args.h * 1e-3,
-                  mesh_file=getattr(args, "mesh_file", None), f_low=args.f_low,
-                  f_high=args.f_high, n_supports=args.n_supports, pad_length=args.pad_length,
-                  n_rows=args.n_rows, n_f=args.n_foot_springs)
+    spec, job = track_spec_from_args(args)
+    cache = False if args.no_cache else args.cache_dir
+    s = run_track(spec, args.out, job=job, cache=cache)
     peaks = ", ".join(f"{k} {v:.0f} Hz" for k, v in s["rail_pad_peak_hz"].items())
-    sys.stdout.write(f"{s['preset']} track, {s['model']}: rail-on-pad peak {peaks}; "
+    sys.stdout.write(f"{s['name']} track, {s['model']}: rail-on-pad peak {peaks}; "
                      f"{s['runtime_s']:.1f} s\n")
+    for v in s["files"].values():
+        sys.stdout.write(f"wrote {v}\n")
+    return 0
+
+
+# ------------------------------------------------------------------------ pass-by
+def _passby_args(p: argparse.ArgumentParser) -> None:
+    from .passbyjob import CONTACT_FILTERS
+    from .simulate.passby import CONTINUOUS_OF, FORMS, OUTPUTS
+    from .supports import PRESETS
+
+    p.add_argument("--config", type=Path, metavar="TOML",
+                   help="options from a TOML file (keys = option names with underscores); "
+                        "options given here override it")
+    p.add_argument("--preset", choices=sorted(PRESETS), help="track (default site)")
+    p.add_argument("--model", choices=sorted(CONTINUOUS_OF), help="track model "
+                   "(default wfe-discrete)")
+    p.add_argument("--train", type=Path, metavar="FILE", help="train layout (TOML/JSON); "
+                   "default 6 cars, 24 wheels over 120 m")
+    p.add_argument("--speed-kmh", type=_positive, help="train speed (km/h, default 216)")
+    p.add_argument("--roughness", type=Path, metavar="FILE", help="roughness spectrum: "
+                   "wavelength_m,level_db_re_1um CSV or the SBB wide table")
+    p.add_argument("--roughness-hold", action="store_true",
+                   help="hold the roughness spectrum's end levels beyond its wavelengths")
+    p.add_argument("--wheel", help="rigid (default), flexible, or an FRF CSV file")
+    p.add_argument("--f-low", type=_positive, help="lowest band (Hz, default 100)")
+    p.add_argument("--f-high", type=_positive, help="highest band (Hz, default 5000)")
+    p.add_argument("--form", choices=FORMS, help="incoherent sum: exact (default) or paper")
+    p.add_argument("--no-interaction", action="store_true",
+                   help="neglect interference between wheels (diagonal rail mobility)")
+    p.add_argument("--continuous", action="store_true",
+                   help="position-independent rail (continuous support)")
+    p.add_argument("--output", choices=OUTPUTS, help="sensor on the rail foot (default) or head")
+    p.add_argument("--contact-filter", choices=CONTACT_FILTERS, help="default analytical")
+    p.add_argument("--max-distance", type=_positive, metavar="M",
+                   help="largest wheel-sensor distance in the rail tables (m, default 30)")
+    p.add_argument("--signal", action="store_true", help="also write the time signal")
+    p.add_argument("--sample-rate", type=_positive, help="Hz (default 25600)")
+    p.add_argument("--noise-fraction", type=_non_negative,
+                   help="band noise RMS as a fraction of the band's largest RMS (default 0)")
+    p.add_argument("--position-error", type=_non_negative, metavar="M",
+                   help="sigma of the wheel-position error of the pulses (m, default 0)")
+    p.add_argument("--seed", type=int, help="random seed of the signal (default 0)")
+    p.add_argument("--no-speed", action="store_true",
+                   help="leave the train speed out of the recording's metadata")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/passby"), metavar="DIR",
+                   help="output folder (default railfem-output/passby)")
+
+
+def _passby_run(args) -> int:
+    from .passbyjob import read_config, run_passby
+
+    opts = read_config(args.config) if args.config else {}
+    given = {"preset": args.preset, "model": args.model, "train": args.train,
+             "speed_kmh": args.speed_kmh, "roughness": args.roughness, "wheel": args.wheel,
+             "f_low": args.f_low, "f_high": args.f_high, "form": args.form,
+             "output": args.output, "contact_filter": args.contact_filter,
+             "max_distance": args.max_distance, "sample_rate": args.sample_rate,
+             "noise_fraction": args.noise_fraction, "position_error": args.position_error,
+             "seed": args.seed}
+    opts.update({k: (str(v) if isinstance(v, Path) else v) for k, v in given.items()
+                 if v is not None})
+    for flag, key, value in ((args.no_interaction, "interaction", False),
+                             (args.continuous, "continuous", True), (args.signal, "signal", True),
+                             (args.roughness_hold, "roughness_hold", True),
+                             (args.no_speed, "speed_known", False)):
+        if flag:
+            opts[key] = value
+    s = run_passby(args.out, **opts)
+    sys.stdout.write(f"{s['preset']} track ({s['model']}), {s['train']['n_wheels']} wheels, "
+                     f"{s['speed_m_per_s'] * 3.6:.0f} km/h: {s['runtime_s']['total']:.1f} s\n")
     for v in s["files"].values():
         sys.stdout.write(f"wrote {v}\n")
     return 0
@@ -363,7 +519,99 @@ def _mobility_run(args) -> int:
     return 0
 
 
+# ------------------------------------------------------------ pass-by decay rate
+def _tdr_passby_args(p: argparse.ArgumentParser) -> None:
+    p.set_defaults(_run=_tdr_passby_run)
+    p.add_argument("recordings", nargs="+", type=Path, metavar="RECORDING",
+                   help="pass-by recordings: .npz or .wav, each with a .toml or .json "
+                        "metadata file of the same name (quantity, fs_hz, speed_m_s, ...)")
+    p.add_argument("--f-low", type=_positive, default=100.0, help="lowest band (Hz)")
+    p.add_argument("--f-high", type=_positive, default=5000.0, help="highest band (Hz)")
+    p.add_argument("--speed", type=_positive, default=None, metavar="M/S",
+                   help="train speed in m/s (overrides the metadata)")
+    p.add_argument("--axle-spacing", type=_positive, default=None, metavar="M",
+                   help="bogie axle spacing in m, to find the speed when it is not known")
+    p.add_argument("--channel", default=None, metavar="NAME",
+                   help="channel of multi-channel 'railfem passby' recordings")
+    p.add_argument("--l1", type=_positive, default=1.0, metavar="M",
+                   help="energy window around each wheel, m (default 1)")
+    p.add_argument("--l3-low", type=_positive, default=0.6, metavar="M",
+                   help="slope-fit length below --l3-split, m (default 0.6)")
+    p.add_argument("--l3-high", type=_positive, default=1.2, metavar="M",
+                   help="slope-fit length from --l3-split up, m (default 1.2)")
+    p.add_argument("--l3-split", type=_positive, default=1000.0, metavar="HZ",
+                   help="band centre frequency where the slope-fit length changes (Hz)")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/tdr-passby"),
+                   metavar="DIR", help="output folder (default railfem-output/tdr-passby)")
+
+
+def _tdr_passby_run(args) -> int:
+    from .estimators.passby import PassbyOptions
+    from .tdrpassbyjob import run_tdr_passby
+
+    opts = PassbyOptions(f_low=args.f_low, f_high=args.f_high, l1=args.l1,
+                         l3_low=args.l3_low, l3_high=args.l3_high, l3_split_hz=args.l3_split)
+    s = run_tdr_passby(args.recordings, args.out, opts, speed=args.speed,
+                       axle_spacing=args.axle_spacing, channel=args.channel)
+    for w in s["wheels"]:
+        sys.stdout.write(f"{w['name']}: {w['count']} wheels, {w['speed_m_s']:.2f} m/s "
+                         f"({w['speed_source']})\n")
+    for v in s["files"].values():
+        sys.stdout.write(f"wrote {v}\n")
+    return 0
+
+
 #: name -> (add_arguments(parser), run(args) -> exit code, help)
+# ------------------------------------------------------------ decay rate from data
+def _tdr_args(p: argparse.ArgumentParser) -> None:
+    sub = p.add_subparsers(dest="method", metavar="METHOD", required=True)
+    h = sub.add_parser("hammer", help="EN 15461 hammer method on a measurement",
+                       description="EN 15461 decay rate of a hammer measurement: a dataset "
+                       "folder (frf.csv + meta.json) or a TOML descriptor of a CSV/UFF file.")
+    h.add_argument("data", type=Path, metavar="DATA", help="dataset folder or .toml descriptor")
+    h.add_argument("--sensor", nargs="+", metavar="NAME", help="sensors to use (default all)")
+    h.add_argument("--threshold-db", type=_finite, default=-15.0, metavar="DB",
+                   help="noise-floor candidates: level re the point FRF below this (default -15)")
+    h.add_argument("--floor-drop-db", type=_positive, default=3.0, metavar="DB",
+                   help="a tail is a noise floor when it falls less than this (default 3)")
+    h.add_argument("--plain-threshold", action="store_true",
+                   help="drop everything below the threshold (no flat-tail test)")
+    h.add_argument("--attenuation-range", type=_non_negative, nargs=2, metavar=("LOW", "HIGH"),
+                   help="also drop positions implying an attenuation outside LOW..HIGH dB/m "
+                   "below 400 Hz (e.g. 3 30); off by default")
+    h.add_argument("--no-exclusion", action="store_true", help="use every position")
+    h.add_argument("--point", choices=("nominal", "realised"), default="nominal",
+                   help="weight the point FRF at x = 0 (EN 15461, default) or where it was struck")
+    h.add_argument("--out", type=Path, default=Path("railfem-output/tdr"), metavar="DIR",
+                   help="output folder (default railfem-output/tdr)")
+    h.set_defaults(_run=_tdr_run)
+    _tdr_passby_args(sub.add_parser(
+        "passby", help="energy iteration and slope fitting on pass-by recordings",
+        description="Track decay rate from pass-by recordings (time signals + metadata): "
+                    "energy iteration and slope fitting per one-third-octave band."))
+
+
+def _tdr_run(args) -> int:
+    from .estimators.tdr import NO_EXCLUSION, NoiseFloorExclusion
+    from .tdrjob import run_tdr_hammer
+
+    if args.no_exclusion:
+        exclusion = NO_EXCLUSION
+    else:
+        exclusion = NoiseFloorExclusion(
+            threshold_db=args.threshold_db,
+            floor_drop_db=None if args.plain_threshold else args.floor_drop_db,
+            attenuation_range=None if args.attenuation_range is None else tuple(args.attenuation_range))
+    s = run_tdr_hammer(args.data, args.out, exclusion=exclusion, point=args.point,
+                       sensors=args.sensor)
+    for name, r in s["decay_rate"].items():
+        n_ok = sum(r["suitable"])
+        sys.stdout.write(f"{name}: {n_ok} of {len(r['suitable'])} bands suitable\n")
+    for v in s["files"].values():
+        sys.stdout.write(f"wrote {v}\n")
+    return 0
+
+
 COMMANDS = {
     "mesh": (_mesh_args, _mesh_run, "mesh a rail profile and write a mesh-quality summary"),
     "dispersion": (_dispersion_args, _dispersion_run,
@@ -374,6 +622,9 @@ COMMANDS = {
                  "free-rail point and transfer mobilities (CSV, plot)"),
     "track": (_track_args, _track_run,
               "supported track of a Table 1 preset: mobilities, EN 15461 decay rates, plots"),
+    "tdr": (_tdr_args, _tdr_run, "track decay rate from measured or simulated data"),
+    "passby": (_passby_args, _passby_run,
+               "train pass-by: rail vibration from roughness, band levels, time signal"),
 }
 
 
@@ -384,6 +635,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("-v", "--verbose", action="count", default=0,
                         help="more log output (-vv for debug)")
     parser.add_argument("-q", "--quiet", action="store_true", help="only warnings and errors")
+    parser.add_argument("--version", action="version", version=f"railfem {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", required=True)
     for name, (add_args, run, help_text) in COMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
@@ -437,13 +689,39 @@ def _setup_logging(verbose: int, quiet: bool):
     return restore
 
 
+def _terminate(signum, frame):
+    # SIGTERM (kill, a batch scheduler) unwinds like Ctrl-C, so that temporary files of
+    # the atomic writer are removed instead of being left behind
+    raise KeyboardInterrupt
+
+
+def _stdout_closed() -> int:
+    """The reader of our stdout went away (``railfem ... | head``): not an error of ours.
+    Point stdout at devnull so the interpreter's final flush does not complain again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+    except (OSError, ValueError, AttributeError):
+        pass
+    return 0
+
+
 def main(argv=None) -> int:
     """Entry point of the ``railfem`` command; returns the exit code."""
+    import signal
+
     parser = build_parser()
     args = parser.parse_args(argv)  # exits with code 2 on malformed arguments
     restore_logging = _setup_logging(args.verbose, args.quiet)
+    previous_term = None
+    if threading.current_thread() is threading.main_thread():
+        previous_term = signal.signal(signal.SIGTERM, _terminate)
     try:
-        return int(args._run(args) or 0)
+        code = int(args._run(args) or 0)
+        sys.stdout.flush()
+        return code
+    except BrokenPipeError:
+        return _stdout_closed()
     except (BadInput, ValueError, OSError, KeyError) as exc:
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         log.debug("traceback of the error below", exc_info=True)
@@ -453,6 +731,8 @@ def main(argv=None) -> int:
         sys.stderr.write("railfem: interrupted\n")
         return 130
     finally:
+        if previous_term is not None:
+            signal.signal(signal.SIGTERM, previous_term)
         restore_logging()
 
 

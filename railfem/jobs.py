@@ -13,23 +13,20 @@ import json
 import logging
 import os
 import re
-import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from . import meshing, section, waveguide, waves
+from . import branches, meshing, section, waveguide, waves
+from .atomic import (  # noqa: F401  (the job layer's names, re-exported)
+    prepare_output_dir, write_bytes_atomic, write_text, write_text_atomic)
 from .materials import Material
 from .profiles import EN13674_60E1, RailProfile, get_profile, polygon_properties
 
 log = logging.getLogger(__name__)
 
-# Permissions of written files: what open() would give (0666 minus the umask).
-_UMASK = os.umask(0)
-os.umask(_UMASK)
-_FILE_MODE = 0o666 & ~_UMASK
 
 #: Frequency (Hz) of the default wave-shape renders: on UIC60 the vertical and lateral
 #: bending, torsion, longitudinal and the first web-bending wave all propagate at 2 kHz
@@ -40,11 +37,12 @@ DISPERSION_CSV_HEADER = """\
 # railfem free-rail dispersion
 # one row per wave: time dependence exp(+i omega t), wave exp(-i k x)
 # frequency_hz : frequency f = omega / (2 pi) in Hz
-# wave         : wave index at this frequency (k(omega) runs: sorted by |k|; omega(k) runs:
-#                mode number at this k, ascending frequency)
+# wave         : k(omega) runs: wave index at this frequency, sorted by |k|; omega(k) runs:
+#                branch number (railfem.branches: modes followed along k by their shapes)
 # family       : mirror-symmetry family: symmetric (vertical, longitudinal, foot flapping)
 #                or antisymmetric (lateral, torsion, web bending)
-# label        : wave type from the mode shape (railfem.labels)
+# label        : wave type from the mode shape (railfem.labels); omega(k) runs: one type
+#                per branch
 # k_re, k_im   : real and imaginary part of the wavenumber k in rad/m; k(omega) runs list
 #                the positive-going waves (Im k <= 0: decaying towards +x)
 # propagating  : 1 when |Im k| <= {max_att} |Re k| (railfem.plotting.MAX_ATTENUATION)
@@ -71,22 +69,6 @@ def progress_logger(what: str, *, min_interval: float = 2.0, logger=None):
                         total, 100.0 * done / total, elapsed, eta)
 
     return progress
-
-
-def write_text_atomic(path, text: str) -> Path:
-    """Write text to ``path`` atomically (parent folders are created)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}-", dir=path.parent)
-    try:
-        os.chmod(tmp, _FILE_MODE)  # mkstemp gives 0600; outputs get the usual mode
-        with os.fdopen(fd, "w", newline="") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    return path
 
 
 def _json_safe(obj):
@@ -234,8 +216,8 @@ def run_mesh(profile, h: float, out_dir) -> dict:
     """Mesh ``profile`` at element size ``h`` (m); write <name>.npz, <name>_quality.json and
     <name>_quality.txt in ``out_dir``. Returns {'mesh', 'json', 'txt', 'quality'}."""
     prof = _resolve_profile(profile)
+    out = prepare_output_dir(out_dir, "mesh")
     mesh = meshing.mesh_profile(prof, h)
-    out = Path(out_dir)
     npz = meshing.save_mesh(mesh, out / f"{mesh.name}.npz")
     q = mesh_quality(mesh)
     js = write_text_atomic(out / f"{mesh.name}_quality.json", json.dumps(q, indent=2) + "\n")
@@ -348,7 +330,7 @@ def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=Non
 
     if (frequencies is None) == (k_values is None):
         raise ValueError("give either frequencies (Hz) or k_values (rad/m), not both/neither")
-    out = Path(out_dir)
+    out = prepare_output_dir(out_dir, "dispersion")
     material = Material.steel(loss_factor)
     mesh = load_or_mesh(profile, h, mesh_file, mesh_units=mesh_units, mesh_axes=mesh_axes)
     guide = waveguide.assemble(mesh, material)
@@ -367,29 +349,20 @@ def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=Non
         disp = waves.solve(guide, f, method=method, n_waves=n_waves,
                            progress=progress or progress_logger("dispersion k(omega)"))
         rows = _dispersion_rows_k_of_omega(disp, MAX_ATTENUATION)
-        ax = plotting.plot_dispersion(disp.frequency, disp.k, disp.label)
+        # the plot follows the propagating waves by their shapes, which waves.solve does
+        # not return: a second pass of about the cost of the solve
+        br = branches.k_of_omega(guide, np.unique(f), method=method, n_waves=n_waves,
+                                 progress=progress_logger("dispersion branches"))
     else:
         k = np.atleast_1d(np.asarray(k_values, dtype=float))
         if np.any(~np.isfinite(k)) or np.any(k < 0):
             raise ValueError(f"wavenumbers must be finite and >= 0 rad/m, got {k[:3]}...")
-        prog = progress or progress_logger("dispersion omega(k)")
-        freqs = {fam: np.zeros((len(k), n_modes)) for fam in guide.families}
-        labs = {fam: np.empty((len(k), n_modes), dtype=object) for fam in guide.families}
-        for i, kk in enumerate(k):
-            res = waves.omega_of_k(guide, [kk], n_modes=n_modes)
-            for fam, (fr, lb) in res.items():
-                freqs[fam][i], labs[fam][i] = fr[0], lb[0]
-            prog(i + 1, len(k))
-        rows = [(freqs[fam][i, j], j, fam, labs[fam][i, j], kk, 0.0, 1)
-                for i, kk in enumerate(k) for fam in guide.families for j in range(n_modes)]
-        rows.sort(key=lambda r: (r[4], r[0]))
-        all_f = np.hstack([freqs[fam] for fam in guide.families])
-        names = []
-        for fam in guide.families:
-            for j in range(n_modes):
-                vals, counts = np.unique(labs[fam][:, j].astype(str), return_counts=True)
-                names.append(f"{vals[np.argmax(counts)]} ({fam[:4]}.)")
-        ax = plotting.plot_dispersion_k(k, all_f, names)
+        br = branches.omega_of_k(guide, np.unique(k), n_modes=n_modes,
+                                 progress=progress or progress_logger("dispersion omega(k)"))
+        ok = br.present()
+        rows = sorted(((br.frequency[i, b], b, br.family[b], br.label[b], br.k[i, b].real,
+                        0.0, 1) for i, b in zip(*np.nonzero(ok))), key=lambda r: (r[4], r[0]))
+    ax = plotting.plot_branches(br)
     ax.set_title(f"{mesh.profile.name}, h = {mesh.h * 1e3:g} mm, {guide.n_dofs} DOFs")
     paths["csv"] = write_text_atomic(out / "dispersion.csv", _csv_text(header, columns, rows))
     paths["png"] = plotting.save_figure(ax, out / "dispersion.png")
@@ -402,8 +375,8 @@ def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=Non
             log.warning("no propagating wave at %g Hz: nothing to render", render_frequency)
         for i, ws in enumerate(shapes[:max_renders]):
             name = f"wave_{i:02d}_{ws.family}_{_slug(ws.label)}.png"
-            title = (f"{ws.label} ({ws.family[:4]}.), {ws.frequency:g} Hz, "
-                     f"k = {ws.k.real:.3g} rad/m")
+            title = (f"{branches.type_in_words(ws.label)} ({ws.family} family)\n"
+                     f"{ws.frequency:g} Hz, k = {ws.k.real:.3g} rad/m")
             renders.append(rendering.render_wave_shape(guide.nodes, guide.elements, ws.shape,
                                                        out / "renders" / name, title=title,
                                                        window_size=window_size))
@@ -412,6 +385,7 @@ def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=Non
                         len(shapes))
     paths["renders"] = renders
     meta = {
+        "command": "dispersion",
         "profile": mesh.profile.name, "profile_source": mesh.profile.source, "mesh": mesh.name,
         "mesh_source": mesh.source, "mesh_origin_m": list(mesh.origin), "curved": mesh.curved,
         "h_m": mesh.h, "n_dofs": guide.n_dofs, "families": list(guide.families),
@@ -497,7 +471,7 @@ def run_convergence(profile, sizes, out_dir, *, frequencies=(), n_cut_on: int = 
 
     if geometry not in ("curved", "straight", "both"):
         raise ValueError(f"geometry must be 'curved', 'straight' or 'both', got {geometry!r}")
-    out = Path(out_dir)
+    out = prepare_output_dir(out_dir, "convergence")
     runs = {"curved": [True], "straight": [False], "both": [True, False]}[geometry]
     paths = {}
     for curved in runs:

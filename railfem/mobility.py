@@ -177,16 +177,14 @@ def _kernels(k: np.ndarray, x: np.ndarray, L_force: float, L_resp: float):
     spread uniformly over L_force and a response averaged over L_resp (both centred)."""
     pieces = _smoothing_pieces(L_force, L_resp)
     if not pieces:
-        fwd = np.where(x >= 0, np.exp(-1j * k[:, None] * np.abs(x)), 0.0)
-        bwd = np.where(x < 0, np.exp(-1j * k[:, None] * np.abs(x)), 0.0)
-        return fwd, bwd
+        e = np.exp(-1j * k[:, None] * np.abs(x))
+        return e * (x >= 0), e * (x < 0)
     # outside the smoothing window the kernel is a plain wave times a constant per wave
     half = (L_force + L_resp) / 2
     at_edge = _forward_kernel(k, np.array([half]), pieces)
     near = np.abs(x) < half
     plain = at_edge * np.exp(-1j * k[:, None] * np.clip(np.abs(x) - half, 0.0, None))
-    fwd = np.where(x >= half, plain, 0.0)
-    bwd = np.where(x <= -half, plain, 0.0)
+    fwd, bwd = plain * (x >= half), plain * (x <= -half)
     if near.any():
         fwd[:, near] = _forward_kernel(k, x[near], pieces)
         bwd[:, near] = _forward_kernel(k, -x[near], pieces)
@@ -260,35 +258,70 @@ def free_receptance(guide: Waveguide, frequency, force: list[Location], response
 
 def wave_terms(fr: FamilyResponse, w):
     """Per-wave factors of the residue sum: response shapes (n_out, nw) read directly and
-    through the mirror, and load participations (nw, n_in) for the load and its mirror."""
+    through the mirror, and load participations (nw, n_in) for the load and its mirror.
+    The mirror's sign flip acts on the small load/response matrices, not on the modes."""
     phi = w.phi
-    a = ((fr.flip[:, None] * phi).T @ fr.F) / w.denom[:, None]  # psi^T F / d
+    a = (phi.T @ (fr.flip[:, None] * fr.F)) / w.denom[:, None]  # psi^T F / d
     b = (phi.T @ fr.F) / w.denom[:, None]  # same for the mirrored load T_a F
-    return fr.R @ phi, a, fr.R @ (fr.flip[:, None] * phi), b
+    return fr.R @ phi, a, (fr.R * fr.flip[None, :]) @ phi, b
+
+
+def _pair_products(R: np.ndarray, p: np.ndarray) -> np.ndarray:
+    """C[(o, i), n] = R[o, n] p[n, i]: the per-wave weight of each output-input pair."""
+    return (R[:, None, :] * p.T[None, :, :]).reshape(R.shape[0] * p.shape[1], -1)
 
 
 def combine(terms, fwd: np.ndarray, bwd: np.ndarray) -> np.ndarray:
     """-i sum_n over waves with forward/backward kernels (nw, ...) -> (n_out, ..., n_in)."""
     Rphi, a, Rphi_m, b = terms
-    return -1j * (np.einsum("on,n...,ni->o...i", Rphi, fwd, a)
-                  + np.einsum("on,n...,ni->o...i", Rphi_m, bwd, b))
+    n_o, n_i = Rphi.shape[0], a.shape[1]
+    s = (_pair_products(Rphi, a) @ fwd.reshape(fwd.shape[0], -1)
+         + _pair_products(Rphi_m, b) @ bwd.reshape(bwd.shape[0], -1))
+    return -1j * np.moveaxis(s.reshape(n_o, n_i, *fwd.shape[1:]), 1, -1)
+
+
+def residue_sum(terms, k: np.ndarray, x, L_force: float = 0.0,
+                L_resp: float = 0.0) -> np.ndarray:
+    """Receptance (n_out, nx, n_in) of a wave set given its ``wave_terms`` and wavenumbers k,
+    at response positions x (1-D, m) relative to the load centre.
+
+    Outside the smoothing window only one direction contributes (forward for x >= the
+    half window, backward for x <= minus it), each a plain wave times a constant, so each
+    side is one matrix product; near-field waves are skipped beyond their reach, where they
+    are below e^-35 of their amplitude."""
+    x = np.asarray(x, dtype=float)
+    Rphi, a, Rphi_m, b = terms
+    n_o, n_i = Rphi.shape[0], a.shape[1]
+    Cf, Cb = _pair_products(Rphi, a), _pair_products(Rphi_m, b)
+    pieces = _smoothing_pieces(L_force, L_resp)
+    half = (L_force + L_resp) / 2
+    edge = _forward_kernel(k, np.array([half]), pieces)[:, 0] if pieces else np.ones(len(k))
+    reach = 35.0 / np.maximum(-k.imag, 1e-300) + half
+    out = np.zeros((n_o * n_i, x.size), dtype=complex)
+    pos = x >= half
+    neg = (x <= -half) if pieces else ~pos
+    for side, C in ((pos, Cf), (neg, Cb)):
+        if not side.any():
+            continue
+        idx = np.flatnonzero(side)
+        s = np.abs(x[idx]) - half
+        far = reach - half >= s.max()
+        out[:, idx] = (C[:, far] * edge[far]) @ np.exp(-1j * np.outer(k[far], s))
+        short = ~far & (reach - half >= s.min())
+        if short.any():
+            sub = s <= (reach[short] - half).max()
+            out[:, idx[sub]] += (C[:, short] * edge[short]) @ np.exp(
+                -1j * np.outer(k[short], s[sub]))
+    near = ~(pos | neg)
+    if near.any():
+        fwd, bwd = _kernels(k, x[near], L_force, L_resp)
+        out[:, near] = Cf @ fwd + Cb @ bwd
+    return -1j * out.reshape(n_o, n_i, x.size).transpose(0, 2, 1)
 
 
 def wave_sum(fr: FamilyResponse, w, x, L_force: float = 0.0, L_resp: float = 0.0) -> np.ndarray:
     """Receptance (n_out, nx, n_in) of one family's waves at response positions x."""
-    x = np.asarray(x, dtype=float)
-    terms = wave_terms(fr, w)
-    # near-field waves are negligible (< e^-35) beyond their reach: skip those positions
-    reach = 35.0 / np.maximum(-w.k.imag, 1e-300) + (L_force + L_resp) / 2
-    short = reach < np.abs(x).max(initial=0.0)
-    if not short.any():
-        return combine(terms, *_kernels(w.k, x, L_force, L_resp))
-    sel = lambda m: (terms[0][:, m], terms[1][m], terms[2][:, m], terms[3][m])  # noqa: E731
-    out = combine(sel(~short), *_kernels(w.k[~short], x, L_force, L_resp))
-    near = np.abs(x) <= reach[short].max()
-    if near.any():
-        out[:, near] += combine(sel(short), *_kernels(w.k[short], x[near], L_force, L_resp))
-    return out
+    return residue_sum(wave_terms(fr, w), w.k, x, L_force, L_resp)
 
 
 def _check_frequency(frequency) -> np.ndarray:

@@ -4,11 +4,11 @@ from __future__ import annotations
 import json
 import logging
 import time
-from pathlib import Path
 
 import numpy as np
 
-from . import mobility, waveguide
+from . import waveguide
+from .atomic import prepare_output_dir
 from .jobs import load_or_mesh, progress_logger, write_text_atomic
 from .materials import Material
 
@@ -84,7 +84,7 @@ def run_free_mobility(profile, h: float, out_dir, *, frequencies=None, force: st
         raise ValueError(f"response positions x must be finite distances in m, got {xs!r:.80}")
     if isinstance(responses, str):
         responses = (responses,)
-    out = Path(out_dir)
+    out = prepare_output_dir(out_dir, "mobility")
     material = Material.steel(eta)
     mesh = load_or_mesh(profile, h, mesh_file, mesh_units=mesh_units, mesh_axes=mesh_axes)
     guide = waveguide.assemble(mesh, material)
@@ -109,6 +109,7 @@ def run_free_mobility(profile, h: float, out_dir, *, frequencies=None, force: st
                      f"{load.label}", fontsize="medium")
     paths["png"] = plotting.save_figure(ax_mag.figure, out / "mobility.png")
     meta = {
+        "command": "mobility",
         "profile": mesh.profile.name, "profile_source": mesh.profile.source, "mesh": mesh.name,
         "mesh_source": mesh.source, "mesh_origin_m": list(mesh.origin), "curved": mesh.curved,
         "h_m": mesh.h, "n_dofs": guide.n_dofs, "families": list(guide.families),
@@ -127,9 +128,4 @@ def run_free_mobility(profile, h: float, out_dir, *, frequencies=None, force: st
     return paths
 
 
-__all__ = [
-    "DEFAULT_MOBILITY_X", "DEFAULT_RENDER_FREQUENCY", "WaveShape", "convergence_table",
-    "format_mesh_quality", "load_or_mesh", "location_from_spec", "mesh_quality",
-    "progress_logger", "run_convergence", "run_dispersion", "run_free_mobility", "run_mesh",
-    "run_shipped_meshes", "wave_shapes", "write_text_atomic",
-]
+__all__ = ["DEFAULT_MOBILITY_X", "location_from_spec", "run_free_mobility"]

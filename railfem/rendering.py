@@ -17,11 +17,12 @@ from __future__ import annotations
 
 import logging
 import os
-import tempfile
 from pathlib import Path
 from typing import Sequence
 
 import numpy as np
+
+from .atomic import atomic_path
 
 log = logging.getLogger(__name__)
 
@@ -31,13 +32,13 @@ AUTO_SCALE_FRACTION = 0.15
 # Split of a 6-node triangle (vertices 0,1,2; midside 3 on 0-1, 4 on 1-2, 5 on 2-0)
 # into 4 counter-clockwise linear triangles.
 _P2_SPLIT = np.array([[0, 3, 5], [3, 1, 4], [5, 4, 2], [3, 4, 5]])
-_SCALAR_BAR = {"title": "magnitude", "color": "black", "fmt": "%.2g", "vertical": True,
-               "position_x": 0.87, "position_y": 0.1, "width": 0.06, "height": 0.5,
+#: Colour-bar title of a wave shape: a mode shape has an arbitrary scale (railfem scales
+#: them to unit norm), so its magnitude has no physical unit.
+SHAPE_COLORBAR_TITLE = "amplitude (arb. units)"
+_SCALAR_BAR = {"title": SHAPE_COLORBAR_TITLE, "color": "black", "fmt": "%.2g", "vertical": True,
+               "position_x": 0.83, "position_y": 0.1, "width": 0.06, "height": 0.5,
                "title_font_size": 16, "label_font_size": 14}
 # Permissions of written files: what open() would give (0666 minus the umask).
-_UMASK = os.umask(0)
-os.umask(_UMASK)
-_FILE_MODE = 0o666 & ~_UMASK
 # Each edge of a 6-node triangle as (start vertex, midside node, end vertex).
 _P2_EDGES = np.array([[0, 3, 1], [1, 4, 2], [2, 5, 0]])
 
@@ -156,21 +157,13 @@ def _surface_mesh(pv, points: np.ndarray, triangles: np.ndarray):
 
 def _write_atomic(plotter, path: Path) -> None:
     """Screenshot to a temporary file beside ``path``, then move it into place."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}-", suffix=".png", dir=path.parent)
-    os.close(fd)
-    try:
-        os.chmod(tmp, _FILE_MODE)  # mkstemp gives 0600; outputs get the usual 0644-like mode
-        plotter.screenshot(tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        if os.path.exists(tmp):
-            os.unlink(tmp)
-        raise
+    with atomic_path(path) as tmp:
+        plotter.screenshot(str(tmp))
 
 
 def render_wave_shape(nodes, elements, displacement, path, *, title=None, scale=None,
-                      phase=0.0, window_size=(800, 800)) -> Path:
+                      phase=0.0, window_size=(800, 800),
+                      colorbar_title: str = SHAPE_COLORBAR_TITLE) -> Path:
     """Render one cross-section wave shape off-screen to a PNG.
 
     Parameters
@@ -193,6 +186,10 @@ def render_wave_shape(nodes, elements, displacement, path, *, title=None, scale=
         Phase (rad) of the snapshot: the drawn displacement is Re(u e^{i phase}).
     window_size : (int, int)
         Image size in pixels.
+    colorbar_title : str
+        Title of the colour bar of |u|, with its unit (e.g. "amplitude (m)" for a
+        forced response; a mode shape has arbitrary units, the default). VTK's font has
+        no '|' glyph.
 
     Returns
     -------
@@ -225,7 +222,7 @@ def render_wave_shape(nodes, elements, displacement, path, *, title=None, scale=
         surface = _surface_mesh(pv, deformed, p2_to_linear_triangles(elements))
         surface.point_data["|u|"] = magnitude
         plotter.add_mesh(surface, scalars="|u|", cmap="viridis", lighting=False,
-                         scalar_bar_args=_SCALAR_BAR)
+                         scalar_bar_args={**_SCALAR_BAR, "title": str(colorbar_title)})
         plotter.add_mesh(_line_mesh(pv, front, _edge_segments(elements, True)),
                          color="grey", line_width=2, lighting=False)
         outline = deformed.copy()  # PolyData shares memory with `deformed`
@@ -283,3 +280,66 @@ def render_wave_shapes(nodes, elements, shapes, paths_or_dir,
                          "pass one title per shape or titles=None")
     return [render_wave_shape(nodes, elements, shape, path, title=title, **kwargs)
             for shape, path, title in zip(shapes, paths, titles)]
+
+
+# ------------------------------------------------------------------ wheel modes (3-D)
+def revolve_mode(nodes, elements, shape, n: int, *, n_theta: int = 96, scale=None):
+    """Points and quads of the wheel surface swept around the axle, deformed by harmonic n.
+
+    nodes: (N, 2) (r, z) of the section's P2 nodes; elements: (m, 6) P2 triangles;
+    shape: (N, 3) real (U_r, U_z, U_theta) with u_r = U_r cos(n theta), u_z = U_z cos(n
+    theta), u_theta = U_theta sin(n theta). Returns (points (k, 3), quads (q, 4),
+    magnitude (k,)) with x, y in the wheel plane and z along the axle; the largest
+    displacement is drawn as 8 % of the wheel radius unless ``scale`` is given."""
+    nodes = np.asarray(nodes, dtype=float)
+    shape = np.real(np.asarray(shape))
+    if shape.shape != (len(nodes), 3):
+        raise ValueError(f"shape must be (n_nodes, 3) = ({len(nodes)}, 3), got {shape.shape}")
+    seg = _edge_segments(np.asarray(elements, dtype=np.int64), True)  # boundary segments
+    ring = np.unique(seg)
+    local = {int(v): i for i, v in enumerate(ring)}
+    theta = np.linspace(0, 2 * np.pi, n_theta, endpoint=False)
+    c, s = np.cos(n * theta), np.sin(n * theta)
+    u = shape[ring]
+    peak = float(np.abs(shape).max()) or 1.0
+    if scale is None:
+        scale = 0.08 * float(nodes[:, 0].max()) / peak
+    r = nodes[ring, 0][None, :] + scale * u[None, :, 0] * c[:, None]
+    z = nodes[ring, 1][None, :] + scale * u[None, :, 1] * c[:, None]
+    ut = scale * u[None, :, 2] * s[:, None]
+    ct, st = np.cos(theta)[:, None], np.sin(theta)[:, None]
+    pts = np.stack([r * ct - ut * st, r * st + ut * ct, z], axis=-1).reshape(-1, 3)
+    mag = np.sqrt((u[None, :, 0] * c[:, None]) ** 2 + (u[None, :, 1] * c[:, None]) ** 2
+                  + (u[None, :, 2] * s[:, None]) ** 2).ravel()
+    nr = len(ring)
+    a = np.array([local[int(v)] for v in seg[:, 0]])
+    b = np.array([local[int(v)] for v in seg[:, 1]])
+    j = np.arange(n_theta)[:, None]
+    jn = (j + 1) % n_theta
+    quads = np.stack([j * nr + a, j * nr + b, jn * nr + b, jn * nr + a], axis=-1).reshape(-1, 4)
+    return pts, quads, mag
+
+
+def render_wheel_mode(nodes, elements, shape, n: int, path, *, title=None,
+                      window_size=(800, 800), n_theta: int = 96) -> Path:
+    """Render a wheel mode of harmonic n (see :func:`revolve_mode`) off-screen to a PNG."""
+    pts, quads, mag = revolve_mode(nodes, elements, shape, n, n_theta=n_theta)
+    path = Path(path)
+    pv = _import_pyvista()
+    faces = np.column_stack([np.full(len(quads), 4), quads]).ravel()
+    surf = pv.PolyData(pts, faces=faces)
+    surf.point_data["|u|"] = mag
+    plotter = pv.Plotter(off_screen=True, window_size=list(window_size))
+    try:
+        plotter.set_background("white")
+        plotter.add_mesh(surf, scalars="|u|", cmap="viridis", smooth_shading=True,
+                         scalar_bar_args=_SCALAR_BAR)
+        if title:
+            plotter.add_text(str(title), position="upper_edge", font_size=12, color="black")
+        plotter.camera_position = [(1.6, -1.2, 1.4), (0.0, 0.0, 0.05), (0.0, 0.0, 1.0)]
+        plotter.reset_camera()
+        _write_atomic(plotter, path)
+    finally:
+        plotter.close()
+    log.info("wrote wheel mode %s", path)
+    return path

@@ -275,6 +275,12 @@ class SupportLayout:
         """Support centre positions as an array (m)."""
         return np.asarray(self.positions)
 
+    @property
+    def row_length(self) -> float:
+        """Length of rail over which each spring row spreads its force (m): its slice of the
+        pad length (0 for point supports)."""
+        return self.pad_length / self.n_rows if self.pad_length > 0 else 0.0
+
     def row_offsets(self) -> np.ndarray:
         """Offsets of the spring rows from the support centre (m), midpoint rule."""
         n = int(self.n_rows)

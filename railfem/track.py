@@ -13,6 +13,10 @@ which is METHOD.md's (Y_rf + Y_s) F = Y_P P multiplied by K and written for rece
 (mobility = i omega receptance throughout). Multiplying by K keeps an absent (K = 0) or
 rigid spring well-posed.
 
+The discrete and periodic models are split into a parameter-free kernel (free-rail Green's
+functions, ``discrete_kernel`` / ``periodic_kernel``, computed here) and a cheap coupling
+solve with the supports' K(omega) (railfem.coupling); the ``*_receptance`` functions do both.
+
 * ``discrete_receptance``: a finite set of supports (default 131) centred on the load;
   alpha_ss depends only on the separation, so it is built from one residue sum per distinct
   separation (the block-Toeplitz structure) and solved densely.
@@ -20,7 +24,9 @@ rigid spring well-posed.
   support n, F_n = (1/2pi) int F(theta) exp(i n theta) dtheta turns the infinite system into
   one small system per Floquet angle theta, whose lattice sums over the supports are
   geometric series of the waves, summed in closed form; the theta integral is a periodic
-  trapezoid rule (spectrally convergent; its error is checked in the tests).
+  trapezoid rule (spectrally convergent; its error is checked in the tests). Lattice sums
+  are kept at distinct residuals of the separations modulo the spacing, and the integer
+  shifts become one FFT over theta.
 * ``continuous_receptance``: a foundation of dynamic stiffness K_s/d per metre spread over
   the rail-foot underside, added to the section stiffness before the wave solve.
 """
@@ -32,7 +38,9 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from .mobility import FamilyResponse, Location, _kernels, combine, wave_sum, wave_terms
+from .coupling import (DiscreteKernel, PeriodicKernel, couple_discrete, couple_periodic,
+                       theta_mean, unique_separations)
+from .mobility import FamilyResponse, Location, _kernels, combine, residue_sum, wave_sum
 from .supports import SupportLayout, dynamic_stiffness, foot_spring_weights
 from .waveguide import Waveguide
 from .waves import FamilyOperators, frozen_tail, join, waves_at
@@ -102,41 +110,6 @@ def _check_symmetric(guide: Waveguide, locs) -> None:
                              "supported-track models take vertical loads on the mirror plane")
 
 
-@dataclass(frozen=True)
-class _Setup:
-    """Projections on the symmetric family of the load, the outputs and the springs."""
-
-    sP: FamilyResponse  # springs <- load
-    rP: FamilyResponse  # outputs <- load
-    ss: FamilyResponse  # springs <- springs
-    rs: FamilyResponse  # outputs <- springs
-    spring_weight: np.ndarray
-
-
-def _setup(guide, load, outputs, springs):
-    _check_symmetric(guide, [load])
-    S = np.column_stack([p.weights for p in springs.pairs])
-    P = load.weights[:, None]
-    R = np.column_stack([o.weights for o in outputs])
-    fr = lambda Fw, Rw: FamilyResponse(guide, FAMILY, Fw, Rw)  # noqa: E731
-    return _Setup(fr(P, S), fr(P, R), fr(S, S), fr(S, R), springs.weight)
-
-
-def _wave_sets(ops, f, n_waves, tail):
-    """Waves of the family at each frequency, with the frozen near-field tail."""
-    t = frozen_tail(ops, 2 * np.pi * f.min(), n_waves) if tail else None
-    for fi in f:
-        w = waves_at(ops, 2 * np.pi * fi, method="shift-invert", n_waves=n_waves)
-        yield w if t is None else join(w, t)
-
-
-def _unique_sum(fr, w, sep, Lf, Lr):
-    """wave_sum evaluated once per distinct separation, gathered back to sep's shape."""
-    u, inv = np.unique(np.round(sep, 9), return_inverse=True)
-    g = wave_sum(fr, w, u, Lf, Lr)  # (n_out, nu, n_in)
-    return g[:, inv.reshape(sep.shape), :]  # (n_out, *sep.shape, n_in)
-
-
 @dataclass(frozen=True, kw_only=True)
 class TrackResponse:
     """Receptance of a supported track.
@@ -157,48 +130,6 @@ class TrackResponse:
         return 1j * 2 * np.pi * self.frequency[:, None, None, None] * self.receptance
 
 
-def _spring_length(layout: SupportLayout) -> float:
-    """Each spring row spreads its force over its slice of the pad length."""
-    return layout.pad_length / layout.n_rows if layout.pad_length > 0 else 0.0
-
-
-def discrete_receptance(guide: Waveguide, layout: SupportLayout, frequency, *, load: Location,
-                        outputs: list[Location], force_x, response_x,
-                        n_f: int = DEFAULT_N_FOOT_SPRINGS, load_length: float = 0.02,
-                        response_length: float = 0.0, n_waves: int = 40, tail: bool = True,
-                        progress=None) -> TrackResponse:
-    """WFE rail on the discrete supports of ``layout`` (each support may differ).
-
-    The load is spread over load_length along the rail, outputs are averaged over
-    response_length (equal lengths make the result reciprocal in load and output). The
-    supports are taken exactly as laid out: keep loads and responses well inside them
-    (``trackjob.track_receptance`` re-centres a uniform layout on each load-response pair)."""
-    f, fx, rx = _axes(frequency, force_x, response_x)
-    springs = foot_springs(guide, n_f)
-    st = _setup(guide, load, outputs, springs)
-    xs = layout.springs().x
-    Ls = _spring_length(layout)
-    ops = FamilyOperators(guide, FAMILY)
-    n_s, n_p = len(xs), len(springs.pairs)
-    K_rows = layout.spring_stiffness(2 * np.pi * f)  # (nf, n_s)
-    out = np.empty((len(f), len(outputs), len(rx), len(fx)), dtype=complex)
-    for i, w in enumerate(_wave_sets(ops, f, n_waves, tail)):
-        A = _unique_sum(st.ss, w, xs[:, None] - xs[None, :], Ls, Ls)  # (p, s, s', p')
-        A = A.transpose(1, 0, 2, 3).reshape(n_s * n_p, n_s * n_p)
-        B = _unique_sum(st.sP, w, xs[:, None] - fx[None, :], load_length, Ls)  # (p, s, P, 1)
-        B = B[..., 0].transpose(1, 0, 2).reshape(n_s * n_p, len(fx))
-        K = (K_rows[i][:, None] * st.spring_weight[None, :]).ravel()
-        F = np.linalg.solve(np.eye(n_s * n_p) + K[:, None] * A, K[:, None] * B)
-        direct = _unique_sum(st.rP, w, rx[:, None] - fx[None, :], load_length,
-                             response_length)[..., 0]
-        G = _unique_sum(st.rs, w, rx[:, None] - xs[None, :], Ls, response_length)  # o,r,s,p
-        out[i] = direct - np.einsum("orsp,spP->orP", G, F.reshape(n_s, n_p, len(fx)))
-        if progress:
-            progress(i + 1, len(f))
-    return TrackResponse(frequency=f, receptance=out, outputs=tuple(o.label for o in outputs),
-                         response_x=rx, force_x=fx)
-
-
 def _axes(frequency, force_x, response_x):
     from .mobility import _check_frequency
 
@@ -211,14 +142,140 @@ def _axes(frequency, force_x, response_x):
     return f, fx, rx
 
 
+# ------------------------------------------------------------------ Green's functions
+# All locations of a problem (springs, load, outputs) are weight vectors stacked as the
+# columns of W. Per family and frequency the waves are projected on them once:
+# X = phi^T W_r and Xm = phi^T (T_a W_r) (T_a flips the axial DOFs), and the Green's function
+# between any two column groups is a residue sum over those projections. Families on which
+# no location has a component are skipped (for vertical loads and spring pairs on the mirror
+# plane: the antisymmetric one).
+
+
+def _projection_sweep(guide: Waveguide, W: np.ndarray, f: np.ndarray, n_waves: int,
+                      tail: bool, forces: np.ndarray):
+    """Per frequency, a list over the active families of (k, X, Xm, denom); the frozen
+    near-field tail (waves.frozen_tail) is projected once and appended at each frequency.
+    A family is active when a force column (springs or loads, ``forces``) has a component
+    on it: a family no force excites adds nothing (e.g. the antisymmetric part of an
+    off-centre vertical sensor under vertical loads and spring pairs)."""
+    fams = []
+    for fam in guide.families:
+        Wr = np.asarray(guide.families[fam].T.T @ W)
+        if not np.any(Wr[:, forces] != 0):
+            continue
+        comp = guide.families[fam].component
+        Wm = np.where(comp == 0, -1.0, 1.0)[:, None] * Wr
+        ops = FamilyOperators(guide, fam)
+        t = frozen_tail(ops, 2 * np.pi * f.min(), n_waves) if tail else None
+        tp = None if t is None else (t.k, t.phi.T @ Wr, t.phi.T @ Wm, t.denom)
+        fams.append((ops, Wr, Wm, tp))
+    for fi in f:
+        sets = []
+        for ops, Wr, Wm, tp in fams:
+            w = waves_at(ops, 2 * np.pi * fi, method="shift-invert", n_waves=n_waves)
+            p = (w.k, w.phi.T @ Wr, w.phi.T @ Wm, w.denom)
+            if tp is not None:
+                p = tuple(np.concatenate([u, v]) for u, v in zip(p, tp))
+            sets.append(p)
+        yield sets
+
+
+def _terms(p, o, i):
+    """wave_terms of the response columns o and force columns i of one projected set."""
+    _, X, Xm, d = p
+    return X[:, o].T, Xm[:, i] / d[:, None], Xm[:, o].T, X[:, i] / d[:, None]
+
+
+def _green(sets, o, i, x, Lf, Lr) -> np.ndarray:
+    """Receptance (n_o, nx, n_i) at separations x (response minus load position, m), summed
+    over the families."""
+    return sum(residue_sum(_terms(p, o, i), p[0], x, Lf, Lr) for p in sets)
+
+
+def _columns(springs: FootSprings, load: Location, outputs: list[Location]):
+    W = np.column_stack([p.weights for p in springs.pairs] + [load.weights]
+                        + [o.weights for o in outputs])
+    n_p = len(springs.pairs)
+    return W, np.arange(n_p), np.array([n_p]), n_p + 1 + np.arange(len(outputs))
+
+
+# ------------------------------------------------------------------ discrete supports
+
+
+def discrete_kernel(guide: Waveguide, springs: FootSprings, spring_x, frequency, *,
+                    load: Location, outputs: list[Location], force_x, response_x,
+                    spring_length: float = 0.0, load_length: float = 0.02,
+                    response_length: float = 0.0, n_waves: int = 40, tail: bool = True,
+                    progress=None) -> DiscreteKernel:
+    """The parameter-free part of the discrete-support model (railfem.coupling): free-rail
+    receptances between the spring sets at ``spring_x`` (m; one set of foot springs per
+    support or row), the load at ``force_x`` and the outputs at ``response_x``.
+
+    spring_length: length along the rail over which each set spreads its force (m);
+    load_length / response_length: the same for the load and the outputs."""
+    f, fx, rx = _axes(frequency, force_x, response_x)
+    xs = np.atleast_1d(np.asarray(spring_x, dtype=float))
+    _check_symmetric(guide, [load])
+    W, S, P, R = _columns(springs, load, outputs)
+    u_ss, i_ss = unique_separations(xs[:, None] - xs[None, :])
+    u_sP, i_sP = unique_separations(xs[:, None] - fx[None, :])
+    u_rs, i_rs = unique_separations(rx[:, None] - xs[None, :])
+    u_rP, i_rP = unique_separations(rx[:, None] - fx[None, :])
+    n_p, n_o, nf = len(S), len(R), len(f)
+    ss = np.empty((nf, len(u_ss), n_p, n_p), dtype=complex)
+    sP = np.empty((nf, len(u_sP), n_p), dtype=complex)
+    rs = np.empty((nf, len(u_rs), n_o, n_p), dtype=complex)
+    rP = np.empty((nf, len(u_rP), n_o), dtype=complex)
+    Ls = spring_length
+    for i, sets in enumerate(_projection_sweep(guide, W, f, n_waves, tail,
+                                                   np.concatenate([S, P]))):
+        ss[i] = _green(sets, S, S, u_ss, Ls, Ls).transpose(1, 0, 2)
+        sP[i] = _green(sets, S, P, u_sP, load_length, Ls)[..., 0].T
+        rs[i] = _green(sets, R, S, u_rs, Ls, response_length).transpose(1, 0, 2)
+        rP[i] = _green(sets, R, P, u_rP, load_length, response_length)[..., 0].T
+        if progress:
+            progress(i + 1, nf)
+    return DiscreteKernel(frequency=f, spring_weight=np.asarray(springs.weight, dtype=float),
+                          spring_x=xs, ss=ss, ss_sep=u_ss, ss_index=i_ss, sP=sP,
+                          sP_index=i_sP, rs=rs, rs_index=i_rs,
+                          rP=rP, rP_index=i_rP)
+
+
+def discrete_receptance(guide: Waveguide, layout: SupportLayout, frequency, *, load: Location,
+                        outputs: list[Location], force_x, response_x,
+                        n_f: int = DEFAULT_N_FOOT_SPRINGS, load_length: float = 0.02,
+                        response_length: float = 0.0, n_waves: int = 40, tail: bool = True,
+                        progress=None) -> TrackResponse:
+    """WFE rail on the discrete supports of ``layout`` (each support may differ):
+    ``discrete_kernel`` then ``coupling.couple_discrete``.
+
+    The load is spread over load_length along the rail, outputs are averaged over
+    response_length (equal lengths make the result reciprocal in load and output). The
+    supports are taken exactly as laid out: keep loads and responses well inside them
+    (``railfem.models`` re-centres a uniform layout on each load-response pair)."""
+    kernel = discrete_kernel(guide, foot_springs(guide, n_f), layout.springs().x, frequency,
+                             load=load, outputs=outputs, force_x=force_x,
+                             response_x=response_x, spring_length=layout.row_length,
+                             load_length=load_length, response_length=response_length,
+                             n_waves=n_waves, tail=tail, progress=progress)
+    f = kernel.frequency
+    out = couple_discrete(kernel, layout.spring_stiffness(2 * np.pi * f))
+    _, fx, rx = _axes(f, force_x, response_x)
+    return TrackResponse(frequency=f, receptance=out, outputs=tuple(o.label for o in outputs),
+                         response_x=rx, force_x=fx)
+
+
+# ------------------------------------------------------------------ periodic supports
+
+
 def _reduce(delta: np.ndarray, d: float):
     """delta = m d + r with r in [-d/2, d/2): returns (m, r)."""
     m = np.floor(delta / d + 0.5)
     return m, delta - m * d
 
 
-def _lattice(fr, w, delta, d, theta, Lf, Lr, n_explicit: int = 2) -> np.ndarray:
-    """L(delta, theta) = sum_j G(delta + j d) exp(-i j theta), (n_theta, n_out, n_delta, n_in).
+def _lattice(sets, o, i, delta, d, theta, Lf, Lr, n_explicit: int = 2) -> np.ndarray:
+    """L(delta, theta) = sum_j G(delta + j d) exp(-i j theta), (n_theta, n_o, n_delta, n_i).
 
     Terms |j| <= n_explicit are summed directly (they contain the smoothing of loads and
     springs); beyond, every wave term is e^{-ik|x|} times a constant, so each wave's tail is
@@ -228,29 +285,83 @@ def _lattice(fr, w, delta, d, theta, Lf, Lr, n_explicit: int = 2) -> np.ndarray:
     if (Lf + Lr) / 2 + d / 2 >= m * d - 1e-12:
         raise ValueError("load/pad lengths exceed the lattice's explicit range")
     js = np.arange(-n_explicit, n_explicit + 1)
-    x = delta[None, :] + js[:, None] * d
-    G = wave_sum(fr, w, x.ravel(), Lf, Lr).reshape(-1, len(js), len(delta), fr.F.shape[1])
-    out = np.einsum("tj,ojdi->todi", np.exp(-1j * np.outer(theta, js)), G)
-    alive = np.abs(np.exp(-1j * w.k * (m - 0.5) * d)) > 1e-14
-    if alive.any():
-        k = w.k[alive]
-        Rphi, a, Rphi_m, b = wave_terms(fr, w)
-        terms = (Rphi[:, alive], a[alive], Rphi_m[:, alive], b[alive])
-        fwd, _ = _kernels(k, delta + m * d, Lf, Lr)
-        _, bwd = _kernels(k, delta - m * d, Lf, Lr)
-        q = np.exp(-1j * k * d)[:, None]
-        gf = np.exp(-1j * m * theta)[None, :] / (1 - q * np.exp(-1j * theta)[None, :])
-        gb = np.exp(1j * m * theta)[None, :] / (1 - q * np.exp(1j * theta)[None, :])
-        tail = combine(terms, fwd[:, :, None] * gf[:, None, :], bwd[:, :, None] * gb[:, None, :])
-        out += tail.transpose(2, 0, 1, 3)
+    x = (delta[None, :] + js[:, None] * d).ravel()
+    phase = np.exp(-1j * np.outer(theta, js))
+    out = 0.0
+    for p in sets:
+        k, terms = p[0], _terms(p, o, i)
+        G = residue_sum(terms, k, x, Lf, Lr).reshape(len(o), len(js), len(delta), len(i))
+        L = np.einsum("tj,ojdi->todi", phase, G)
+        alive = np.abs(np.exp(-1j * k * (m - 0.5) * d)) > 1e-14
+        if alive.any():
+            ka = k[alive]
+            ta = (terms[0][:, alive], terms[1][alive], terms[2][:, alive], terms[3][alive])
+            fwd, _ = _kernels(ka, delta + m * d, Lf, Lr)
+            _, bwd = _kernels(ka, delta - m * d, Lf, Lr)
+            q = np.exp(-1j * ka * d)[:, None]
+            gf = np.exp(-1j * m * theta)[None, :] / (1 - q * np.exp(-1j * theta)[None, :])
+            gb = np.exp(1j * m * theta)[None, :] / (1 - q * np.exp(1j * theta)[None, :])
+            tl = combine(ta, fwd[:, :, None] * gf[:, None, :], bwd[:, :, None] * gb[:, None, :])
+            L = L + tl.transpose(2, 0, 1, 3)
+        out = out + L
     return out
 
 
-def _shifted_lattice(fr, w, delta, d, theta, Lf, Lr) -> np.ndarray:
-    """_lattice for any delta, using L(r + m d) = exp(i m theta) L(r)."""
-    m, r = _reduce(np.asarray(delta, dtype=float), d)
-    L = _lattice(fr, w, r, d, theta, Lf, Lr)
-    return L * np.exp(1j * np.outer(theta, m))[:, None, :, None]
+def _residuals(delta: np.ndarray, d: float):
+    """Distinct residuals of delta = m d + r: (r_unique, index of each delta, m)."""
+    m, r = _reduce(delta, d)
+    u, inv = unique_separations(r)
+    return u, inv, m.astype(int)
+
+
+def periodic_kernel(guide: Waveguide, springs: FootSprings, row_offsets, spacing: float,
+                    frequency, *, load: Location, outputs: list[Location], force_x,
+                    response_x, spring_length: float = 0.0, load_length: float = 0.02,
+                    n_theta: int = DEFAULT_N_THETA, n_waves: int = 40, tail: bool = True,
+                    progress=None) -> PeriodicKernel:
+    """The parameter-free part of the periodic-support model (railfem.coupling): Floquet
+    lattice sums of the free rail between the spring rows of one cell (offsets
+    ``row_offsets`` from the support centre, supports at x = n * spacing), the load at
+    ``force_x`` and the outputs at ``response_x``, at ``n_theta`` angles."""
+    f, fx, rx = _axes(frequency, force_x, response_x)
+    if int(n_theta) != n_theta or n_theta < 16:
+        raise ValueError(f"n_theta = {n_theta!r}: use an integer >= 16 Floquet angles")
+    _check_symmetric(guide, [load])
+    o = np.atleast_1d(np.asarray(row_offsets, dtype=float))
+    d = float(spacing)
+    W, S, P, R = _columns(springs, load, outputs)
+    n_r, n_p, n_o, nf = len(o), len(S), len(R), len(f)
+    theta = -np.pi + 2 * np.pi * np.arange(n_theta) / n_theta
+    dss = (o[:, None] - o[None, :]).ravel()
+    u_sP, i_sP, m_sP = _residuals(o[:, None] - fx[None, :], d)
+    u_rs, i_rs, m_rs = _residuals(rx[:, None] - o[None, :], d)
+    u_rP, i_rP, m_rP = _residuals(rx[:, None] - fx[None, :], d)
+    need, inv = np.unique(m_rP, return_inverse=True)
+    inv = inv.reshape(m_rP.shape)
+    n = n_r * n_p
+    ss = np.empty((nf, n_theta, n, n), dtype=complex)
+    sP = np.empty((nf, n_theta, len(u_sP), n_p), dtype=complex)
+    rs = np.empty((nf, n_theta, len(u_rs), n_o, n_p), dtype=complex)
+    direct = np.empty((nf, n_o, len(rx), len(fx)), dtype=complex)
+    Ls = spring_length
+    m_ss, r_ss = _reduce(dss, d)
+    for i, sets in enumerate(_projection_sweep(guide, W, f, n_waves, tail,
+                                                   np.concatenate([S, P]))):
+        L = _lattice(sets, S, S, r_ss, d, theta, Ls, Ls)
+        L = L * np.exp(1j * np.outer(theta, m_ss))[:, None, :, None]  # (t, p, r r', p')
+        ss[i] = L.reshape(n_theta, n_p, n_r, n_r, n_p).transpose(0, 2, 1, 3, 4).reshape(
+            n_theta, n, n)
+        sP[i] = _lattice(sets, S, P, u_sP, d, theta, load_length, Ls)[..., 0].transpose(0, 2, 1)
+        rs[i] = _lattice(sets, R, S, u_rs, d, theta, Ls, 0.0).transpose(0, 2, 1, 3)
+        LrP = _lattice(sets, R, P, u_rP, d, theta, load_length, 0.0)[..., 0]  # (t, o, u)
+        Lm = theta_mean(LrP, theta, need)  # (n_need, o, u)
+        direct[i] = Lm[inv, :, i_rP].transpose(2, 0, 1)
+        if progress:
+            progress(i + 1, nf)
+    return PeriodicKernel(frequency=f, theta=theta,
+                          spring_weight=np.asarray(springs.weight, dtype=float), ss=ss,
+                          sP=sP, sP_u=i_sP, sP_m=m_sP, rs=rs, rs_u=i_rs, rs_m=m_rs,
+                          direct=direct)
 
 
 def periodic_receptance(guide: Waveguide, params, spacing: float, frequency, *, load: Location,
@@ -258,45 +369,19 @@ def periodic_receptance(guide: Waveguide, params, spacing: float, frequency, *, 
                         n_rows: int = 1, n_f: int = DEFAULT_N_FOOT_SPRINGS,
                         load_length: float = 0.02, n_theta: int = DEFAULT_N_THETA,
                         n_waves: int = 40, tail: bool = True, progress=None) -> TrackResponse:
-    """WFE rail on infinitely many identical supports at x = n * spacing (Floquet)."""
+    """WFE rail on infinitely many identical supports at x = n * spacing (Floquet):
+    ``periodic_kernel`` then ``coupling.couple_periodic``."""
     from .supports import uniform_layout
 
-    f, fx, rx = _axes(frequency, force_x, response_x)
-    if int(n_theta) != n_theta or n_theta < 16:
-        raise ValueError(f"n_theta = {n_theta!r}: use an integer >= 16 Floquet angles")
     cell = uniform_layout(params, spacing, n=1, pad_length=pad_length, n_rows=n_rows)
-    o = cell.springs().x  # row offsets within the cell
-    Ls = _spring_length(cell)
-    springs = foot_springs(guide, n_f)
-    st = _setup(guide, load, outputs, springs)
-    n_r, n_p = len(o), len(springs.pairs)
-    theta = -np.pi + 2 * np.pi * np.arange(n_theta) / n_theta
-    K_rows = cell.spring_stiffness(2 * np.pi * f)  # (nf, n_r)
-    ops = FamilyOperators(guide, FAMILY)
-    out = np.empty((len(f), len(outputs), len(rx), len(fx)), dtype=complex)
-    eye = np.eye(n_r * n_p)
-    for i, w in enumerate(_wave_sets(ops, f, n_waves, tail)):
-        dss = (o[:, None] - o[None, :]).ravel()
-        Lss = _shifted_lattice(st.ss, w, dss, spacing, theta, Ls, Ls)  # (t, p, r*r', p')
-        Lss = Lss.reshape(n_theta, n_p, n_r, n_r, n_p).transpose(0, 2, 1, 3, 4)
-        Lss = Lss.reshape(n_theta, n_r * n_p, n_r * n_p)
-        dsp = (o[:, None] - fx[None, :]).ravel()
-        LsP = _shifted_lattice(st.sP, w, dsp, spacing, theta, load_length, Ls)[..., 0]
-        LsP = LsP.reshape(n_theta, n_p, n_r, len(fx)).transpose(0, 2, 1, 3)
-        LsP = LsP.reshape(n_theta, n_r * n_p, len(fx))
-        K = (K_rows[i][:, None] * st.spring_weight[None, :]).ravel()
-        Fh = np.linalg.solve(eye + K[None, :, None] * Lss, K[None, :, None] * LsP)
-        drs = (rx[:, None] - o[None, :]).ravel()
-        Lrs = _shifted_lattice(st.rs, w, drs, spacing, theta, Ls, 0.0)  # (t, out, rx*r, p)
-        Lrs = Lrs.reshape(n_theta, len(outputs), len(rx), n_r, n_p)
-        reacted = np.einsum("toxrp,trpP->toxP", Lrs, Fh.reshape(n_theta, n_r, n_p, len(fx)))
-        # the free-rail waves' near-poles in theta cancel only inside the whole integrand
-        drp = (rx[:, None] - fx[None, :]).ravel()
-        LrP = _shifted_lattice(st.rP, w, drp, spacing, theta, load_length, 0.0)[..., 0]
-        LrP = LrP.reshape(n_theta, len(outputs), len(rx), len(fx))
-        out[i] = (LrP - reacted).mean(axis=0)
-        if progress:
-            progress(i + 1, len(f))
+    kernel = periodic_kernel(guide, foot_springs(guide, n_f), cell.springs().x, spacing,
+                             frequency, load=load, outputs=outputs, force_x=force_x,
+                             response_x=response_x, spring_length=cell.row_length,
+                             load_length=load_length, n_theta=n_theta, n_waves=n_waves,
+                             tail=tail, progress=progress)
+    f = kernel.frequency
+    out = couple_periodic(kernel, cell.spring_stiffness(2 * np.pi * f))
+    _, fx, rx = _axes(f, force_x, response_x)
     return TrackResponse(frequency=f, receptance=out, outputs=tuple(o.label for o in outputs),
                          response_x=rx, force_x=fx)
 
@@ -327,6 +412,14 @@ def supported_operators(guide: Waveguide, params, spacing: float) -> FamilyOpera
     bed = (T.T @ foot_bed(guide) @ T).tocsr()[ops.order][:, ops.order]
     ops.extra = lambda omega: (dynamic_stiffness(params, omega).item() / spacing) * bed
     return ops
+
+
+def _wave_sets(ops, f, n_waves, tail):
+    """Waves of the family at each frequency, with the frozen near-field tail."""
+    t = frozen_tail(ops, 2 * np.pi * f.min(), n_waves) if tail else None
+    for fi in f:
+        w = waves_at(ops, 2 * np.pi * fi, method="shift-invert", n_waves=n_waves)
+        yield w if t is None else join(w, t)
 
 
 def continuous_receptance(guide: Waveguide, params, spacing: float, frequency, *,

@@ -1,110 +1,109 @@
-"""The supported-track job behind ``railfem track``: one model of a Table 1 track, its point
-and EN 15461 transfer mobilities, decay rates, along-rail table and plots."""
+"""The supported-track job behind ``railfem track``: one model of a track spec, its point
+and EN 15461 transfer mobilities, decay rates, along-rail table, plots and ``run.json``.
+
+The job only calls the model door (railfem.models). ``run.json`` records everything that
+determines the results: the resolved spec (railfem.spec.spec_to_dict), the job settings,
+the frequency grid, the mesh, the model and the railfem version; its ``config`` section is
+a valid config (``railfem track --config run.json`` or ``--from-run DIR`` repeats the run).
+"""
 from __future__ import annotations
 
 import json
 import logging
 import time
+import tomllib
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
-from . import beams, mobility, section, track, waveguide
-from .jobs import load_or_mesh, progress_logger, write_text_atomic
-from .materials import Material
+from . import beams, models
+from .atomic import prepare_output_dir, write_text_atomic
+from .spec import TrackSpec, spec_to_dict
 from .standards import en15461, iec61260
-from .supports import TrackPreset, preset as get_preset, uniform_layout
 
 log = logging.getLogger(__name__)
 
-MODELS = ("wfe-discrete", "wfe-periodic", "wfe-continuous", "timoshenko-discrete",
-          "timoshenko-continuous")
-OUTPUTS = ("head", "foot")
-POINT_OFFSET = 0.02  # m: hammer position 0 is realised 20 mm from the accelerometer
+OUTPUTS = models.WHERE
+POINT_OFFSET = models.POINT_OFFSET
 
 
-def beam_section(mesh, material: Material) -> beams.BeamSection:
-    """Timoshenko vertical-bending section with the constants of the mesh (METHOD.md §3)."""
-    sc = section.section_constants(mesh)
-    return beams.BeamSection(E=material.E, G=material.E / (2 * (1 + material.nu)),
-                             area=sc.area, I=sc.I_y, kappa=sc.kappa_z, rho=material.rho,
-                             eta=material.loss_factor)
+@dataclass(frozen=True, kw_only=True)
+class JobSettings:
+    """What the job computes besides the spec. f_low, f_high: band range (Hz) of the 1/9
+    octave grid. along_span: half length (m) of the along-rail table around the span.
+    along_frequencies: frequencies (Hz) of the along-rail plot."""
+
+    f_low: float = 50.0
+    f_high: float = 8000.0
+    along_span: float = 6.0
+    along_frequencies: tuple = (250.0, 500.0, 1000.0, 2000.0)
+
+    def __post_init__(self):
+        from . import validators as v
+
+        v.positive("job.f_low", self.f_low, "Hz")
+        v.positive("job.f_high", self.f_high, "Hz")
+        if self.f_high < self.f_low:
+            raise ValueError(f"job.f_high = {self.f_high!r} Hz is below job.f_low = "
+                             f"{self.f_low!r} Hz")
+        v.positive("job.along_span", self.along_span, "m")
+        object.__setattr__(self, "along_frequencies",
+                           tuple(v.positive("job.along_frequencies", x, "Hz")
+                                 for x in self.along_frequencies))
+
+    def frequency(self) -> np.ndarray:
+        return iec61260.ninth_octave_grid(self.f_low, self.f_high)
 
 
-def _wfe_rail(mesh, material):
-    """The WFE rail, the hammer/wheel load (20 mm head patch) and the two outputs."""
-    guide = waveguide.assemble(mesh, material)
-    outputs = [mobility.point(guide, "head_top", label="head"),
-               mobility.point(guide, "foot_sensor", label="foot")]
-    return guide, mobility.head_patch(guide, 0.02), outputs
+JOB_KEYS = {"f_low": float, "f_high": float, "along_span": float, "along_frequencies": list}
 
 
-def track_receptance(model: str, tp: TrackPreset, mesh, frequency, force_x, response_x, *,
-                     n_supports: int = 131, pad_length: float = 0.0, n_rows: int = 1,
-                     n_f: int = track.DEFAULT_N_FOOT_SPRINGS, progress=None) -> np.ndarray:
-    """Receptance (nf, 2 [head, foot sensor], n_resp_x, n_force_x) of one track model.
-
-    Beam models have no cross-section: their head and foot responses are the same."""
-    if model not in MODELS:
-        raise ValueError(f"unknown track model {model!r}; choose one of {', '.join(MODELS)}")
-    f = np.asarray(frequency, dtype=float)
-    fx, rx = np.asarray(force_x, dtype=float), np.asarray(response_x, dtype=float)
-    material = Material.steel(tp.eta_r)
-    layout = uniform_layout(tp.support, tp.spacing, n_supports, pad_length=pad_length,
-                            n_rows=n_rows)
-    omega = 2 * np.pi * f
-    if model.endswith("discrete"):
-        return _centred_on_pairs(model, tp, mesh, material, layout, f, fx, rx, n_f, progress)
-    if model.startswith("timoshenko"):
-        bs = beam_section(mesh, material)
-        if model == "timoshenko-discrete":
-            a = beams.discrete_track_receptance(bs, layout, omega, fx, rx)
-        else:
-            sep = rx[:, None] - fx[None, :]
-            a = beams.continuous_track_receptance(bs, tp.support, tp.spacing, omega,
-                                                  sep.ravel()).reshape(len(f), *sep.shape)
-        return np.repeat(np.asarray(a)[:, None], 2, axis=1)
-    guide, load, outputs = _wfe_rail(mesh, material)
-    common = dict(load=load, outputs=outputs, progress=progress)
-    if model == "wfe-periodic":
-        r = track.periodic_receptance(guide, tp.support, tp.spacing, f, force_x=fx,
-                                      response_x=rx, pad_length=pad_length, n_rows=n_rows,
-                                      n_f=n_f, **common)
-    else:
-        sep = rx[:, None] - fx[None, :]
-        r = track.continuous_receptance(guide, tp.support, tp.spacing, f, x=sep.ravel(),
-                                        **common)
-        return r.receptance[..., 0].reshape(len(f), 2, *sep.shape)
-    return r.receptance
+def job_from_dict(d: dict, base: JobSettings | None = None) -> JobSettings:
+    """JobSettings from the [job] table of a config; unknown keys are errors naming them."""
+    base = base or JobSettings()
+    if not isinstance(d, dict):
+        raise ValueError(f"[job] must be a table, got {d!r}")
+    out = {}
+    for k, x in d.items():
+        if k not in JOB_KEYS:
+            raise ValueError(f"unknown key 'job.{k}'; valid keys: {', '.join(JOB_KEYS)}")
+        if JOB_KEYS[k] is float and (isinstance(x, bool) or not isinstance(x, (int, float))):
+            raise ValueError(f"job.{k} = {x!r}: give a number")
+        out[k] = tuple(x) if k == "along_frequencies" else float(x)
+    return replace(base, **out)
 
 
-def _centred_on_pairs(model, tp, mesh, material, layout, f, fx, rx, n_f, progress):
-    """Truncated discrete tracks centred on each load-response pair: the infinite track is
-    periodic, so a pair (x_P, x_r) is computed as (x_P - c, x_r - c) with c the support
-    nearest to their midpoint, which keeps both as far as possible from the ends of the
-    supported stretch. One solve serves every pair."""
-    c = np.round((rx[:, None] + fx[None, :]) / (2 * tp.spacing)) * tp.spacing
-    uf, jf = np.unique(np.round(fx[None, :] - c, 10), return_inverse=True)
-    ur, jr = np.unique(np.round(rx[:, None] - c, 10), return_inverse=True)
-    jf, jr = jf.reshape(c.shape), jr.reshape(c.shape)
-    if model == "timoshenko-discrete":
-        a = beams.discrete_track_receptance(beam_section(mesh, material), layout,
-                                            2 * np.pi * f, uf, ur)
-        a = np.repeat(np.asarray(a)[:, None], 2, axis=1)
-    else:
-        guide, load, outputs = _wfe_rail(mesh, material)
-        a = track.discrete_receptance(guide, layout, f, load=load, outputs=outputs,
-                                      force_x=uf, response_x=ur, n_f=n_f,
-                                      progress=progress).receptance
-    return a[:, :, jr, jf]
+def read_config(path) -> tuple[dict, dict]:
+    """(spec dict, job dict) of a TOML config file or of a run.json written by this job."""
+    path = Path(path)
+    if path.is_dir():
+        path = path / "run.json"
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise ValueError(f"cannot read config {path}: {exc.strerror or exc}") from None
+    if path.suffix == ".json":
+        try:
+            data = json.loads(text)["config"]
+        except (json.JSONDecodeError, KeyError, TypeError):
+            raise ValueError(f"{path} is not a run.json of 'railfem track' (no 'config' "
+                             "section)") from None
+        return data["spec"], data.get("job", {})
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"config {path}: {exc}") from None
+    job = data.pop("job", {})
+    return data, job
 
 
-def rail_pad_peak(frequency, point_mobility, tp: TrackPreset, rail_mass: float,
+def rail_pad_peak(frequency, point_mobility, spec: TrackSpec, rail_mass: float,
                   f_pinned_pinned: float = np.inf) -> float:
     """Frequency (Hz) of the rail-on-pad resonance: the largest |Y| between half and twice
     sqrt(k_p / (m' d)) / 2 pi (rail mass per span on the pad stiffness), kept below
     0.9 times the pinned-pinned frequency, whose peak can be the higher one on stiff pads."""
-    f0 = np.sqrt(tp.support.kp / (rail_mass * tp.spacing)) / (2 * np.pi)
+    f0 = np.sqrt(spec.support.kp / (rail_mass * spec.spacing)) / (2 * np.pi)
     band = (frequency > f0 / 2) & (frequency < min(2 * f0, 0.9 * f_pinned_pinned))
     if not band.any():
         return float("nan")
@@ -112,54 +111,93 @@ def rail_pad_peak(frequency, point_mobility, tp: TrackPreset, rail_mass: float,
     return float(frequency[i])
 
 
-def run_track(preset_name: str, model: str, out_dir, *, profile="60E1", h: float = 0.01,
-              mesh_file=None, f_low: float = 50.0, f_high: float = 8000.0,
-              n_supports: int = 131, pad_length: float = 0.0, n_rows: int = 1,
-              n_f: int = track.DEFAULT_N_FOOT_SPRINGS, along_span: float = 6.0,
-              along_frequencies=(250.0, 500.0, 1000.0, 2000.0), progress=None) -> dict:
-    """Model the track of a Table 1 preset and write mobilities, decay rates and plots."""
-    tp = get_preset(preset_name)
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+def resonance_marks(frequency, point_mobility, spec: TrackSpec, rail_mass: float,
+                    f_pinned_pinned: float) -> dict:
+    """The named resonances of the point mobility (Hz): sleeper on ballast (largest |Y|
+    within a factor 2 of sqrt(k_b / (m_s + m' d)) / 2 pi: the rail span and sleeper mass on
+    the ballast), rail on pad (:func:`rail_pad_peak`) and the pinned-pinned frequency of
+    the beam between supports (computed, not searched)."""
+    f = np.asarray(frequency, dtype=float)
+    s = spec.support
+    marks = {}
+    if s.kb > 0 and np.isfinite(s.kb):
+        f0 = np.sqrt(s.kb / (s.ms + rail_mass * spec.spacing)) / (2 * np.pi)
+        band = (f > f0 / 2) & (f < 2 * f0)
+        if band.any():
+            marks["sleeper on ballast"] = float(f[np.argmax(np.abs(point_mobility) * band)])
+    marks["rail on pad"] = rail_pad_peak(f, point_mobility, spec, rail_mass, f_pinned_pinned)
+    marks["pinned-pinned"] = float(f_pinned_pinned)
+    return {k: v for k, v in marks.items() if np.isfinite(v)}
+
+
+def _cut_ons(spec: TrackSpec, f) -> dict:
+    """Free-rail cut-ons of the waves a vertical load excites, inside the computed range
+    (the decay-rate plot names them: the decay rate spikes just above each)."""
+    if not spec.model.startswith("wfe"):
+        return {}
+    from .branches import cut_ons
+    from .waveguide import assemble
+
+    guide = assemble(models.rail_mesh(spec.rail), spec.rail.material())
+    return {c.name: c.frequency for c in cut_ons(guide, f[0], f[-1],
+                                                  families=("symmetric",))}
+
+
+def run_track(spec: TrackSpec, out_dir, *, job: JobSettings | None = None, cache=None,
+              progress=None) -> dict:
+    """Model the track ``spec`` and write mobilities, decay rates, plots and run.json."""
+    from . import __version__
+    from .jobs import progress_logger
+
+    job = job or JobSettings()
+    out = prepare_output_dir(out_dir, "track")
     t0 = time.perf_counter()
-    mesh = load_or_mesh(profile, h, mesh_file)
-    f = iec61260.ninth_octave_grid(f_low, f_high)
-    d = tp.spacing
-    xs = d / 2  # sensor at mid-span; supports at x = n d
-    pos = en15461.hammer_positions(d)
-    hammer_x = xs + np.where(pos == 0, POINT_OFFSET, pos)
+    f = job.frequency()
+    xs, pos, hammer = models.hammer_x(spec)
+    d = spec.spacing
     span_fx = np.round(np.arange(0.0, d + 1e-9, 0.1), 10)
-    along_x = np.round(np.arange(-along_span, along_span + 1e-9, 0.1), 10)
-    fx = np.concatenate([hammer_x, span_fx])
+    along_x = np.round(np.arange(-job.along_span, job.along_span + 1e-9, 0.1), 10)
+    fx = np.concatenate([hammer, span_fx])
     rx = np.concatenate([[xs], along_x])
     log.info("track %s, model %s: %d frequencies %.0f-%.0f Hz, %d force x %d response "
-             "positions", tp.name, model, len(f), f[0], f[-1], len(fx), len(rx))
-    alpha = track_receptance(model, tp, mesh, f, fx, rx, n_supports=n_supports,
-                             pad_length=pad_length, n_rows=n_rows, n_f=n_f,
-                             progress=progress or progress_logger(f"track {model}"))
+             "positions", spec.name, spec.model, len(f), f[0], f[-1], len(fx), len(rx))
+    alpha = models.receptance(spec, f, fx, rx, cache=cache,
+                              progress=progress or progress_logger(f"track {spec.model}"))
     Y = 1j * 2 * np.pi * f[:, None, None, None] * alpha
     transfer = Y[:, :, 0, : len(pos)]  # (nf, 2, n_pos): sensor response, hammer moves
-    paths = _write_outputs(out, tp, model, f, pos, hammer_x, xs, transfer,
-                           Y[:, :, 1:, len(pos):], span_fx, along_x, along_frequencies)
-    bs = beam_section(mesh, Material.steel())
+    bs = models.beam_section(spec.rail)
     rail_mass, f_pp = bs.mass_per_length, beams.pinned_pinned_frequency(bs, d)
+    marks = resonance_marks(f, transfer[:, 0, 0], spec, rail_mass, f_pp)
+    paths = _write_outputs(out, spec, f, pos, hammer, xs, transfer,
+                           Y[:, :, 1:, len(pos):], span_fx, along_x, job.along_frequencies,
+                           marks, _cut_ons(spec, f))
+    mesh = models.rail_mesh(spec.rail)
     summary = {
-        "preset": tp.name, "model": model, "mesh": mesh.name, "n_supports": n_supports,
-        "pad_length_m": pad_length, "n_rows": n_rows, "n_foot_springs": n_f,
+        "command": "track", "railfem_version": __version__,
+        "name": spec.name, "model": spec.model,
+        "mesh": {"name": mesh.name, "h_m": mesh.h, "file": spec.rail.mesh_file,
+                 "n_vertices": int(len(mesh.vertices)), "n_triangles": int(len(mesh.triangles))},
         "sensor_x_m": xs, "point_offset_m": POINT_OFFSET,
-        "rail_pad_peak_hz": {o: rail_pad_peak(f, transfer[:, j, 0], tp, rail_mass, f_pp)
+        "hammer_positions_m": pos.tolist(),
+        "frequency_hz": f.tolist(),
+        "rail_pad_peak_hz": {o: rail_pad_peak(f, transfer[:, j, 0], spec, rail_mass, f_pp)
                              for j, o in enumerate(OUTPUTS)},
+        "resonances_hz": marks,
         "runtime_s": time.perf_counter() - t0,
         "files": {k: str(v) for k, v in paths.items()},
+        "config": {"spec": spec_to_dict(spec),
+                   "job": {"f_low": job.f_low, "f_high": job.f_high,
+                           "along_span": job.along_span,
+                           "along_frequencies": list(job.along_frequencies)}},
     }
     paths["json"] = write_text_atomic(out / "run.json", json.dumps(summary, indent=2))
-    log.info("track %s %s done in %.1f s; rail-on-pad peak %.0f Hz (head)", tp.name, model,
-             summary["runtime_s"], summary["rail_pad_peak_hz"]["head"])
+    log.info("track %s %s done in %.1f s; rail-on-pad peak %.0f Hz (head)", spec.name,
+             spec.model, summary["runtime_s"], summary["rail_pad_peak_hz"]["head"])
     return summary
 
 
-def _write_outputs(out, tp, model, f, pos, hammer_x, xs, transfer, along, span_fx, along_x,
-                   along_frequencies) -> dict:
+def _write_outputs(out, spec, f, pos, hammer_x, xs, transfer, along, span_fx, along_x,
+                   along_frequencies, marks, cut_on) -> dict:
     from . import plotting
     from .frf import FRF
     from .frfio import write_frf_csv
@@ -188,24 +226,26 @@ def _write_outputs(out, tp, model, f, pos, hammer_x, xs, transfer, along, span_f
                           for xr, z in zip(along_x, v)]
     paths["along_csv"] = write_text_atomic(out / "along_rail.csv", "\n".join(lines) + "\n")
 
-    title = f"{tp.name} track, {model}"
-    ax_mag, _ = plotting.plot_magnitude_phase(f, transfer[:, :, 0],
-                                              [f"point, {o}" for o in OUTPUTS])
-    ax_mag.set_title(title)
+    title = f"{spec.name} track, {spec.model}: vertical hammer, vertical response"
+    ax_mag, _ = plotting.plot_point_mobility(f, transfer[:, :, 0],
+                                             [f"point, {o} sensor" for o in OUTPUTS],
+                                             marks=marks)
+    ax_mag.set_title(title, fontsize="medium")
     paths["mobility_png"] = plotting.save_figure(ax_mag.figure, out / "point_mobility.png")
-    ax = plotting.plot_band_values(results[0].frequency,
-                                   np.column_stack([r.decay_rate for r in results]),
-                                   [f"{o} sensor" for o in OUTPUTS])
-    ax.set_title(title)
+    ax = plotting.plot_decay_rate_results(results, [f"{o} sensor" for o in OUTPUTS],
+                                          direction="vertical", cut_on=cut_on)
+    ax.set_title(title, fontsize="medium")
     paths["decay_png"] = plotting.save_figure(ax.figure, out / "decay_rate.png")
     k_mid = int(np.argmin(np.abs(span_fx - xs)))
-    cols, labels = [], []
-    for fa in along_frequencies:
-        i = int(np.argmin(np.abs(np.log(f / fa))))
-        cols.append(20 * np.log10(np.abs(along[i, 0, :, k_mid])))
-        labels.append(f"{f[i]:.0f} Hz")
-    ax = plotting.plot_along_rail(along_x, np.column_stack(cols), labels,
-                                  ylabel="Head mobility level (dB re 1 m/s/N)")
-    ax.set_title(f"{title}: force at x = {span_fx[k_mid]:g} m")
+    idx = plotting.along_rail_frequencies(f, along_frequencies)
+    cols = [20 * np.log10(np.abs(along[i, 0, :, k_mid])) for i in idx]
+    n = int(np.ceil(np.abs(along_x).max() / spec.spacing))
+    ax = plotting.plot_along_rail(along_x, np.column_stack(cols),
+                                  [f"{f[i]:.0f} Hz" for i in idx],
+                                  ylabel="Head mobility level (dB re 1 m/s/N)",
+                                  x_force=span_fx[k_mid],
+                                  supports=np.arange(-n, n + 1) * spec.spacing)
+    ax.set_title(f"{spec.name} track, {spec.model}: force at x = {span_fx[k_mid]:g} m "
+                 "(mid-span)", fontsize="medium")
     paths["along_png"] = plotting.save_figure(ax.figure, out / "along_rail.png")
     return paths

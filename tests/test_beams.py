@@ -302,7 +302,8 @@ def test_pad_rows(rail):
     x = np.array([0.0, 0.3])
     point = bm.discrete_track_receptance(rail, sp.uniform_layout(p, n=21), w, 0.0, x)
     one_row = sp.uniform_layout(p, n=21, pad_length=0.15, n_rows=1)
-    np.testing.assert_allclose(bm.discrete_track_receptance(rail, one_row, w, 0.0, x), point)
+    spread = bm.discrete_track_receptance(rail, one_row, w, 0.0, x)
+    assert np.abs(spread / point - 1).max() > 0.01  # the pad length is not ignored
     tiny = sp.uniform_layout(p, n=21, pad_length=1e-4, n_rows=3)
     np.testing.assert_allclose(bm.discrete_track_receptance(rail, tiny, w, 0.0, x), point,
                                rtol=1e-4)
@@ -376,3 +377,18 @@ def test_receptance_to_mobility():
     w = np.array([1.0, 2.0])
     a = np.ones((2, 3), dtype=complex)
     np.testing.assert_allclose(bm.receptance_to_mobility(w, a), 1j * w[:, None] * a)
+
+
+def test_spread_springs_average_the_point_greens_function(rail):
+    """The closed-form box smoothing of the beam kernel equals a midpoint-rule average of the
+    point Green's function over both boxes (load box 0.02 m, spring box 0.15 m)."""
+    w = TWO_PI * np.array([300.0, 2000.0])
+    Ls, Lf, sep = 0.15, 0.02, np.array([0.0, 0.05, 0.6])
+    ker = bm.discrete_kernel(rail, [0.0], w, -sep, [0.0], spring_length=Ls, load_length=Lf)
+    n = 400
+    ts = (np.arange(n) + 0.5) / n * Ls - Ls / 2
+    tf = (np.arange(n) + 0.5) / n * Lf - Lf / 2
+    for j, s0 in enumerate(sep):
+        x = s0 + ts[:, None] - tf[None, :]
+        avg = bm.free_beam_receptance(rail, w, x).mean(axis=(1, 2))
+        np.testing.assert_allclose(ker.sP[:, ker.sP_index[0, j], 0], avg, rtol=1e-4)

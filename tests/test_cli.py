@@ -127,3 +127,109 @@ def test_convergence_study_and_command(tmp_path):
     assert (out / "convergence.png").exists()
     data = json.loads((out / "convergence.json").read_text())
     assert data["reference"]["cut_on"] == "finest"
+
+
+# ------------------------------------------------------------------ railfem track
+TRACK_FAST = ["--model", "timoshenko-discrete", "--f-low", "100", "--f-high", "250"]
+TRACK_CSV = ("transfer_mobility.csv", "decay_rate.csv", "along_rail.csv")
+
+
+def _track(tmp_path, name, *argv):
+    out = tmp_path / name
+    code = cli.main(["-q", "track", *argv, "--cache-dir", str(tmp_path / "cache"),
+                     "--out", str(out)])
+    return code, out
+
+
+def _same_outputs(a, b):
+    return all((a / f).read_bytes() == (b / f).read_bytes() for f in TRACK_CSV)
+
+
+@pytest.mark.parametrize("model", ["timoshenko-discrete", "wfe-periodic"])
+def test_track_config_file_equals_options_and_rerun_from_run_json(tmp_path, model):
+    """A TOML config and the same values as options give byte-identical CSVs; so does a
+    re-run from the first run's run.json (with --config and with --from-run)."""
+    argv = ["--preset", "soft", "--model", model, "--f-low", "100", "--f-high", "160"]
+    code, opt = _track(tmp_path, "opt", *argv, "--kp", "300", "--eta-p", "0.2", "--kb", "80",
+                       "--eta-b", "1.2", "--ms", "150", "--eta-r", "0.02", "--pad-length",
+                       "120", "--n-rows", "2")
+    assert code == 0
+    (tmp_path / "c.toml").write_text(f"""
+preset = "soft"
+model = "{model}"
+[support]
+kp = "300 MN/m"
+eta_p = 0.2
+kb = 80e6
+eta_b = 1.2
+ms = "150 kg"
+[rail]
+eta = 0.02
+[track]
+pad_length = "120 mm"
+n_rows = 2
+[job]
+f_low = 100
+f_high = 160
+""")
+    code, cfg = _track(tmp_path, "cfg", "--config", str(tmp_path / "c.toml"))
+    assert code == 0 and _same_outputs(opt, cfg)
+    code, rerun = _track(tmp_path, "rerun", "--config", str(opt / "run.json"))
+    assert code == 0 and _same_outputs(opt, rerun)
+    code, rerun2 = _track(tmp_path, "rerun2", "--from-run", str(opt))
+    assert code == 0 and _same_outputs(opt, rerun2)
+    run = json.loads((opt / "run.json").read_text())
+    assert run["config"]["spec"]["support"]["kp"] == 300e6
+    assert run["config"]["spec"]["track"]["pad_length"] == pytest.approx(0.12)
+    assert run["railfem_version"] and len(run["frequency_hz"]) == 9  # 92.6-171 Hz, 1/9 oct
+    assert run["mesh"]["name"] == "60E1_h10mm"
+
+
+@pytest.mark.parametrize("toml, message", [
+    ("[support]\nkpp = 3e8\n", "support.kpp"),
+    ("[support]\nkp = \"300 MPa\"\n", "support.kp"),
+    ("[support]\nkb = -4e7\n", "kb"),
+    ("[job]\nf_lo = 100\n", "job.f_lo"),
+    ("[track]\npad_length = \"10 m\"\n", "pad_length"),
+    ("model = \"winkler\"\n", "model"),
+])
+def test_track_bad_config_fails_before_computing(tmp_path, capsys, monkeypatch, toml, message):
+    from railfem import models
+
+    def boom(*a, **k):
+        raise AssertionError("computed despite a bad config")
+
+    monkeypatch.setattr(models, "receptance", boom)
+    (tmp_path / "bad.toml").write_text(toml)
+    code, out = _track(tmp_path, "bad", "--config", str(tmp_path / "bad.toml"))
+    assert code == 2 and message in capsys.readouterr().err
+    assert not (out / "run.json").exists()
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--pad-length", "10000"], "--pad-length"),      # 10 m (issue 10)
+    (["--pad-length", "700"], "pad_length"),          # longer than the 600 mm spacing
+    (["--pad-length", "0.15"], "in mm"),              # metres given
+    (["--h", "0.01"], "--h 0.01 mm"),                 # hung before (issue 10)
+    (["--h", "1000"], "between 0.5 and 100 mm"),      # said "give metres" before
+    (["--spacing", "0.6"], "--spacing"),
+    (["--model", "timoshenko-continuous", "--pad-length", "150"], "continuous"),
+])
+def test_track_bad_options_fail_before_computing(tmp_path, capsys, monkeypatch, argv, message):
+    from railfem import models
+
+    monkeypatch.setattr(models, "receptance", lambda *a, **k: 1 / 0)
+    code, _ = _track(tmp_path, "bad", *argv)
+    assert code == 2 and message in capsys.readouterr().err
+
+
+def test_timoshenko_discrete_uses_the_pad_length(tmp_path):
+    """Issue 10: the beam model spread its supports over the pad length instead of ignoring
+    it; a 150 mm pad changes the point mobility above the rail-on-pad resonance."""
+    _, point = _track(tmp_path, "point", *TRACK_FAST)
+    _, pad = _track(tmp_path, "pad", *TRACK_FAST, "--pad-length", "150")
+    from railfem.frfio import read_frf_csv
+
+    a = read_frf_csv(point / "transfer_mobility.csv").values[:, 0, 0]
+    b = read_frf_csv(pad / "transfer_mobility.csv").values[:, 0, 0]
+    assert np.abs(b / a - 1).max() > 1e-3

@@ -214,3 +214,31 @@ def test_decay_rate_input_errors():
         decay_rate_from_band_power([100.0, 200.0], np.ones((29, 2)), x)
     with pytest.raises(ValueError, match="attenuation_range"):
         decay_rate_from_band_power([100.0], np.ones((1, 29)), x, attenuation_range=(30, 3))
+
+
+def test_point_offset_weights():
+    # the point struck 0.5 m from the sensor: its weight is half the gap to the next position
+    np.testing.assert_allclose(weighted_intervals([0.0, 1.0, 3.0, 4.0], point_offset=0.5),
+                               [0.25, 1.25, 1.5, 0.5])
+    with pytest.raises(ValueError, match="point_offset"):
+        weighted_intervals([0.0, 1.0, 3.0], point_offset=1.0)
+    x = hammer_positions(0.6)
+    a = decay_rate_from_band_power([500.0], exp_field(beta_of(5.0), x)[None, :], x,
+                                   point_offset=0.02)
+    ratio = exp_field(beta_of(5.0), x)
+    xr = x.copy()
+    xr[0] = 0.02
+    s = np.sum((ratio[1:] + ratio[:-1]) / 2 * np.diff(xr))  # trapezoid written out
+    assert a.decay_rate[0] == pytest.approx(10 * math.log10(math.e) / s, rel=1e-12)
+
+
+def test_floor_tail_start():
+    from railfem.standards.en15461 import floor_tail_start
+
+    x = hammer_positions(0.6)
+    for d in (0.5, 3.0, 30.0):  # a pure exponential never looks like a floor
+        assert floor_tail_start(x, -d * x, -15.0, 3.0) is None
+    level = np.maximum(-3.0 * x, -30.0)  # 3 dB/m onto a flat floor at -30 dB from 10 m
+    k = floor_tail_start(x, level, -15.0, 3.0)
+    # from 9.6 m (-28.8 dB) on the levels fall < 3 dB; from 7.2 m (-21.6 dB) they still fall
+    assert x[k] == pytest.approx(9.6)

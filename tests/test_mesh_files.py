@@ -145,3 +145,23 @@ def test_dispersion_and_mobility_commands_on_a_user_mesh(tmp_path, asym_msh, cap
                      "--freq", "100", "1000", "--x", "0", "0.6", "--out", str(mob)]) == 0
     frf = read_frf_csv(mob / "mobility.csv")
     assert np.all(np.isfinite(frf.values)) and np.all(frf.values[:, 0, 0].real > 0)  # passive
+
+
+def test_node_sets_found_or_given_and_a_missing_one_is_named():
+    """A round bar has no flat foot: foot_underside has a single node, foot_sensor cannot be
+    found and asking for it names it and the fix; a user-given set takes its place."""
+    a = -np.pi / 2 + 2 * np.pi * np.arange(400) / 400
+    disc = profiles.RailProfile(name="disc", outline=np.column_stack(
+        [0.03 * np.cos(a), 0.03 * (1 + np.sin(a))]))
+    mesh = meshing.mesh_profile(disc, 0.01)
+    g = waveguide.assemble(mesh)
+    assert "foot_sensor" not in g.node_sets
+    with pytest.raises(KeyError, match="'foot_sensor'.*was not found.*node_sets"):
+        g.node("foot_sensor")
+    g2 = waveguide.assemble(mesh, node_sets={"foot_sensor": (0.02, 0.01), "probe": [0, 1]})
+    s = g2.node("foot_sensor")
+    assert s in g2.node_sets["boundary"]
+    assert np.hypot(*(g2.nodes[s] - [0.02, 0.01])) < 0.01
+    assert list(g2.node_set("probe")) == [0, 1]
+    with pytest.raises(ValueError, match="node set 'bad'"):
+        waveguide.assemble(mesh, node_sets={"bad": [10**9]})

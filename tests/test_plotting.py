@@ -166,3 +166,176 @@ def test_draws_into_given_axes_and_saves_axes(tmp_path):
     assert path.exists() and path.read_bytes().startswith(b"%PDF")
     with pytest.raises(TypeError, match="Figure or Axes"):
         plotting.save_figure("not a figure", tmp_path / "x.png")
+
+
+# ------------------------------------------------------------------ dispersion branches
+def synthetic_branches():
+    from railfem.branches import Branches
+
+    f = np.linspace(50, 3000, 30)
+    k_v = np.sqrt(2 * np.pi * f) * 0.12
+    k_t = 2 * np.pi * f / 900.0               # crosses k_v
+    k_w = np.where(f > 1300, np.sqrt(np.clip(f - 1300, 0, None)) * 0.2, np.nan)
+    k = np.column_stack([k_v, k_t, k_w]).astype(complex)
+    fr = np.where(np.isfinite(k.real), f[:, None], np.nan)
+    labels = np.array(["vertical bending", "torsion", "cross-section (antisym.)"], dtype=object)
+    point = np.broadcast_to(labels, k.shape).copy()
+    point[20:, 1] = "lateral bending"         # the labeller switching along a branch
+    return Branches(sweep="frequency", frequency=fr, k=k,
+                    family=np.array(["symmetric", "antisymmetric", "antisymmetric"], dtype=object),
+                    label=labels, name=np.array(["vertical bending", "torsion",
+                                                 "antisymmetric cross-section wave"], dtype=object),
+                    point_label=point, mac=np.ones(k.shape))
+
+
+def test_plot_branches_one_line_colour_and_legend_entry_per_branch(tmp_path):
+    br = synthetic_branches()
+    ax = plotting.plot_branches(br)
+    lines = ax.get_lines()
+    assert len(lines) == 3
+    assert len({ln.get_color() for ln in lines}) == 3
+    assert [ln.get_linestyle() for ln in lines] == ["-", "--", "--"]
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert legend == list(br.name)
+    # the torsion line carries all its points, on both sides of the crossing, in one colour
+    assert np.count_nonzero(np.isfinite(lines[1].get_ydata())) == 30
+    save_and_check(ax, tmp_path, "branches.png")
+
+
+def test_branch_colours_follow_the_wave_type():
+    colours = plotting.branch_colours(["torsion", "vertical bending", "torsion", "other"])
+    assert colours[0] == plotting.TYPE_COLOURS["torsion"]
+    assert colours[1] == plotting.TYPE_COLOURS["vertical bending"]
+    assert len(set(colours)) == 4
+    assert len(set(plotting.branch_colours(["x"] * 20))) == 20  # spare colours are distinct
+
+
+def test_dispersion_job_legend_is_one_entry_per_branch_in_words(tmp_path, monkeypatch):
+    """The omega(k) plot of the job used to append a family tag to each label ('... (sym.)
+    (symm.)') and to drop the longitudinal branch from the legend."""
+    from railfem import jobs
+
+    seen = {}
+    save = plotting.save_figure
+
+    def capture(fig, path, **kw):
+        ax = fig if hasattr(fig, "get_legend") else fig.axes[0]
+        seen[path.name] = [t.get_text() for t in ax.get_legend().get_texts()]
+        return save(fig, path, **kw)
+
+    monkeypatch.setattr(plotting, "save_figure", capture)
+    jobs.run_dispersion("rect:20x50", 0.01, tmp_path / "wk", k_values=np.linspace(0.2, 20, 12),
+                        n_modes=4, render_frequency=None)
+    legend = seen["dispersion.png"]
+    assert "longitudinal" in legend
+    assert len(legend) == len(set(legend))
+    assert not any("(symm.)" in t or "(anti.)" in t or t.count("sym") > 1 for t in legend)
+    jobs.run_dispersion("rect:20x50", 0.01, tmp_path / "kw",
+                        frequencies=np.geomspace(100, 3000, 12), render_frequency=None)
+    assert {"longitudinal", "vertical bending", "lateral bending", "torsion"} <= set(
+        seen["dispersion.png"])
+
+
+# --------------------------------------------------------------------------- decay rate
+def decay_results(rate_of_band, spacing=0.6):
+    """EN 15461 results of transfer mobilities decaying exactly at rate_of_band(centre)
+    dB/m (constant inside each band) along the 29 standard positions."""
+    from railfem.standards import en15461, iec61260
+
+    f = iec61260.ninth_octave_grid(100.0, 5000.0)
+    bands = iec61260.third_octave_bands(100.0, 5000.0)
+    pos = en15461.hammer_positions(spacing)
+    band_of_f = np.argmin(np.abs(np.log(f[:, None] / bands.centre[None, :])), axis=1)
+    rate = rate_of_band(bands.nominal)[band_of_f]
+    y = 10 ** (-rate[:, None] * pos[None, :] / 20)
+    return en15461.decay_rate(f, y, pos), bands.nominal
+
+
+def test_plot_decay_rate_log_axis_limit_curve_and_failed_bands(tmp_path):
+    from railfem.standards import iso3095
+
+    def rates(bands):
+        r = np.where(bands < 1000, 8.0, 0.5)     # below the vertical limit from 1 kHz
+        r[bands == 2000] = 0.1                   # a band below the EN 15461 D_min
+        return r
+
+    res, bands = decay_results(rates)
+    centres = bands
+    assert not res.suitable[centres == 2000][0]   # the generator made a failing band
+    ax = plotting.plot_decay_rate_results([res], ["head sensor"], direction="vertical",
+                                          cut_on={"foot flapping": 4500.0})
+    assert ax.get_yscale() == "log" and ax.get_xscale() == "log"
+    assert ax.get_ylabel() == "Track decay rate (dB/m)"
+    limit = [ln for ln in ax.get_lines() if ln.get_gid() == "limit"]
+    assert len(limit) == 1
+    assert limit[0].get_ydata() == pytest.approx(iso3095.TRACK_DECAY_LIMIT_VERTICAL)
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert legend == ["head sensor", "EN 15461 lowest measurable D_min",
+                      "ISO 3095 lower limit, vertical", "fails EN 15461 check (hollow)",
+                      "below the ISO 3095 lower limit, vertical"]
+    hollow = [ln for ln in ax.get_lines() if ln.get_markerfacecolor() == "white"
+              and ln.get_label().startswith("_")]
+    assert len(hollow) == 1 and 2000 in hollow[0].get_xdata()
+    crosses = [ln for ln in ax.get_lines() if ln.get_marker() == "x" and ln.get_label()[0] == "_"]
+    assert set(crosses[0].get_xdata()) == {b for b in bands if 1000 <= b <= 5000}
+    assert any(t.get_text().strip() == "foot flapping cut-on 4.5 kHz" for t in ax.texts)
+    save_and_check(ax, tmp_path, "decay_rate.png")
+
+
+def test_plot_decay_rate_arrays_without_limits():
+    centres = np.array([250.0, 500.0, 1000.0])
+    ax = plotting.plot_decay_rate(centres, [[5.0, 6.0], [3.0, 2.0], [1.0, 0.5]],
+                                  ["vertical", "lateral"])
+    assert ax.get_yscale() == "log" and ax.get_legend() is not None
+    assert not [ln for ln in ax.get_lines() if ln.get_gid() == "limit"]
+    assert ax.get_ylim()[0] <= 0.1 and ax.get_ylim()[1] >= 100
+    with pytest.raises(ValueError, match="same bands"):
+        r1 = decay_results(lambda b: np.full(b.shape, 3.0))[0]
+        r2 = type(r1)(**{**r1.__dict__, "frequency": r1.frequency * 2})
+        plotting.plot_decay_rate_results([r1, r2])
+
+
+# ----------------------------------------------------------- marks, mobility, along rail
+def test_point_mobility_marks_named_frequencies(tmp_path):
+    f = np.geomspace(50, 5000, 400)
+    w = 2 * np.pi * f
+    y = 1j * w / (1e8 + 1j * w * 1e4 - 30 * w**2)
+    marks = {"sleeper on ballast": 90.0, "rail on pad": 290.0, "pinned-pinned": 1050.0,
+             "outside": 20000.0}
+    ax_mag, ax_phase = plotting.plot_point_mobility(f, y, ["head"], marks=marks)
+    gids = [ln.get_gid() for ln in ax_mag.get_lines() if ln.get_gid()]
+    assert gids == ["mark:sleeper on ballast", "mark:rail on pad", "mark:pinned-pinned"]
+    texts = [t.get_text().strip() for t in ax_mag.texts]
+    assert texts == ["sleeper on ballast 90 Hz", "rail on pad 290 Hz", "pinned-pinned 1.05 kHz"]
+    assert len([ln for ln in ax_phase.get_lines() if ln.get_gid()]) == 3
+    save_and_check(ax_mag, tmp_path, "point_mobility.png")
+
+
+def test_along_rail_frequencies_are_distinct_and_inside_the_computed_range():
+    from railfem.standards.iec61260 import ninth_octave_grid
+
+    f = ninth_octave_grid(50.0, 1000.0)
+    idx = plotting.along_rail_frequencies(f)
+    assert len(idx) == 3 and len(set(idx)) == 3
+    assert f[idx] == pytest.approx([250, 500, 1000], rel=0.04)
+    # the old picker took the nearest grid point of each wanted frequency: 2000 Hz fell on
+    # 1000 Hz, and below 250 Hz all four fell on the top frequency
+    low = ninth_octave_grid(50.0, 200.0)
+    idx = plotting.along_rail_frequencies(low)
+    assert len(set(idx)) == len(idx) >= 3
+    assert np.all((low[idx] >= 50) & (low[idx] <= 200))
+    assert plotting.along_rail_frequencies([100.0]).tolist() == [0]
+
+
+def test_plot_along_rail_distance_from_force_and_sleepers(tmp_path):
+    x = np.round(np.arange(-6, 6.01, 0.1), 10)
+    levels = np.column_stack([-3 * np.abs(x - 0.3), -2 * np.abs(x - 0.3)])
+    ax = plotting.plot_along_rail(x, levels, ["250 Hz", "500 Hz"], x_force=0.3,
+                                  supports=np.arange(-20, 21) * 0.6)
+    assert ax.get_xlabel() == "Distance from the force (m)"
+    assert ax.get_lines()[0].get_xdata()[np.argmax(levels[:, 0])] == pytest.approx(0.0)
+    (sleepers,) = [ln for ln in ax.get_lines() if ln.get_gid() == "supports"]
+    xs = sleepers.get_xdata()
+    assert np.all((xs >= -6.3) & (xs <= 5.7)) and np.diff(xs) == pytest.approx(0.6)
+    assert "sleeper (support)" in [t.get_text() for t in ax.get_legend().get_texts()]
+    save_and_check(ax, tmp_path, "along_rail.png")

@@ -6,9 +6,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from railfem import meshing, supports
+from railfem import models
+from railfem.spec import preset
 from railfem.standards import en15461
-from railfem.trackjob import track_receptance
 
 DATA = Path(__file__).resolve().parents[2] / "shared" / "datasets" / "refsim_site"
 
@@ -21,8 +21,7 @@ def test_site_track_agrees_with_independent_wfe():
     f, pos = a[:, 0], np.array(meta["hammer_positions_m"])
     theirs = (a[:, 1::2] + 1j * a[:, 2::2])[:, 0::2]  # head response per hammer position
     x_s = meta["sensor"]["x_m"]
-    al = track_receptance("wfe-discrete", supports.preset("site"),
-                          meshing.get_mesh("60E1", 0.01), f, x_s + pos, [x_s])
+    al = models.receptance(preset("site"), f, x_s + pos, [x_s], cache=False)
     ours = 2j * np.pi * f[:, None] * al[:, 0, 0, :]
     point_db = 20 * np.log10(np.abs(ours[:, 0] / theirs[:, 0]))
     assert np.abs(point_db[f <= 2000]).max() < 1.0

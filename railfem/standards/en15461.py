@@ -26,7 +26,11 @@ Provenance of what is implemented here (the standard's text was not available to
 * The 10 dB far-field check and ``D_min`` are derived here (see
   ``lowest_measurable_decay_rate``), not quoted from the standard.
 * The exclusion of noise-polluted far-field transfers (threshold relative to the point
-  FRF; plausible attenuation range) is a railfem option, not part of EN 15461.
+  FRF; plausible attenuation range) is a railfem option, not part of EN 15461 (METHOD.md
+  section 6). So are the flat-tail test of the threshold rule (``floor_drop_db``: drop only
+  positions where the levels have stopped falling, i.e. sit on a noise floor), the
+  ``point_offset`` option (weights from the realised point position) and the per-band
+  ``status`` text of the result.
 """
 
 from __future__ import annotations
@@ -49,6 +53,7 @@ __all__ = [
     "lowest_measurable_decay_rate",
     "decay_rate",
     "decay_rate_from_band_power",
+    "floor_tail_start",
 ]
 
 log = logging.getLogger(__name__)
@@ -104,21 +109,38 @@ def _check_positions(positions: np.ndarray) -> np.ndarray:
     return x
 
 
-def weighted_intervals(positions: np.ndarray) -> np.ndarray:
+def weighted_intervals(positions: np.ndarray, point_offset: float = 0.0) -> np.ndarray:
     """Interval weights ``dx_i`` (m) of eq. (1), half-interval (trapezoid) rule.
 
     ``dx_0 = (x_1 - x_0)/2``, ``dx_i = (x_{i+1} - x_{i-1})/2``, ``dx_M = (x_M - x_{M-1})/2``.
     Each position stands for the stretch of rail half way to its neighbours, so
     ``sum(dx) = x_M - x_0`` and eq. (1) is the trapezoid rule of the decay integral. Used
     because the standard's own wording could not be checked (see the module docstring).
+
+    ``point_offset`` (m, railfem option): use ``x_0 = point_offset`` instead of 0, i.e. the
+    distance from the sensor at which the point FRF was actually struck (e.g. 0.02 m);
+    it must lie in ``[0, x_1)``.
     """
-    x = _check_positions(positions)
+    x = _with_point_offset(_check_positions(positions), point_offset)
     gaps = np.diff(x)
     dx = np.empty_like(x)
     dx[0] = gaps[0] / 2.0
     dx[-1] = gaps[-1] / 2.0
     dx[1:-1] = (gaps[:-1] + gaps[1:]) / 2.0
     return dx
+
+
+def _with_point_offset(x: np.ndarray, point_offset: float) -> np.ndarray:
+    if point_offset == 0.0:
+        return x
+    if not (np.isfinite(point_offset) and 0.0 <= point_offset < x[1]):
+        raise ValueError(
+            f"point_offset = {point_offset!r} m must lie in [0, positions[1] = {float(x[1])!r}) m: "
+            "it is the realised distance of the point-FRF hammer blow from the sensor."
+        )
+    x = x.copy()
+    x[0] = point_offset
+    return x
 
 
 def lowest_measurable_decay_rate(
@@ -160,14 +182,67 @@ class DecayRateResult:
     """Number of positions (point included) entering the sum (int)."""
     used: np.ndarray
     """(n_bands, n_positions) bool mask of the positions entering the sum."""
+    status: tuple[str, ...] = ()
+    """Per band: '' where suitable, else why not (e.g. 'far-field drop 6.1 dB < 10 dB',
+    'D 0.21 < D_min 0.25 dB/m', 'no point FRF', 'fewer than 2 positions'). railfem's text."""
 
 
 def _band_sum(ratio: np.ndarray, x: np.ndarray, used: np.ndarray) -> float:
     # Weights are recomputed on the retained grid: an excluded inner position is bridged by
     # its neighbours (trapezoid across the gap), an excluded tail shortens the length.
+    # x[0] may be a realised point offset (> 0), hence not weighted_intervals(x[used]).
     if used.sum() < 2:
         return math.nan
-    return float(np.sum(ratio[used] * weighted_intervals(x[used])))
+    xu = x[used]
+    gaps = np.diff(xu)
+    dx = np.empty_like(xu)
+    dx[0], dx[-1] = gaps[0] / 2.0, gaps[-1] / 2.0
+    dx[1:-1] = (gaps[:-1] + gaps[1:]) / 2.0
+    return float(np.sum(ratio[used] * dx))
+
+
+def floor_tail_start(x: np.ndarray, level: np.ndarray, threshold_db: float,
+                     floor_drop_db: float, min_tail: int = 3) -> int | None:
+    """Index where a noise-floor tail starts in one band, or None (railfem, not EN 15461).
+
+    ``level``: dB re the point FRF at positions ``x`` (NaN = missing). A tail ``k ... M``
+    counts as a floor when it starts below ``threshold_db``, holds at least ``min_tail``
+    finite levels and its least-squares straight line falls by less than ``floor_drop_db``
+    over its length: the levels have stopped decaying. The first such ``k`` (nearest the
+    sensor) is returned. An exponential decay never qualifies once it is below the
+    threshold: from ``x_k`` on it still falls ``D (x_M - x_k) > |threshold| (x_M - x_k) / x_k``
+    dB (more than 3.3 dB for -15 dB, the standard grid and ``min_tail`` = 3). A real field
+    whose far part decays very slowly after a steep near field looks like a floor, and so
+    does a floor; only coherence or phase could tell them apart (see the exclusion docs).
+    """
+    n = x.size
+    below = np.flatnonzero(level[1:] < threshold_db) + 1
+    if below.size == 0:
+        return None
+    for k in range(int(below[0]), n):
+        if not level[k] < threshold_db:
+            continue
+        tail = np.arange(k, n)
+        tail = tail[np.isfinite(level[tail])]
+        if tail.size < min_tail:
+            return None
+        slope = np.polyfit(x[tail], level[tail], 1)[0]
+        if -slope * (x[tail[-1]] - x[tail[0]]) < floor_drop_db:
+            return k
+    return None
+
+
+def _status(decay: float, drop: float, d_min: float, n_used: int, has_point: bool,
+            far_field_drop_db: float) -> str:
+    if not has_point:
+        return "no point FRF"
+    if n_used < 2 or not np.isfinite(decay):
+        return "fewer than 2 positions"
+    if not drop >= far_field_drop_db:
+        return f"far-field drop {drop + 0.0:.1f} dB < {far_field_drop_db:g} dB"  # no "-0.0"
+    if not decay >= d_min:
+        return f"D {decay:.3g} < D_min {d_min:.3g} dB/m"
+    return ""
 
 
 def decay_rate_from_band_power(
@@ -179,6 +254,9 @@ def decay_rate_from_band_power(
     attenuation_range: tuple[float, float] | None = None,
     attenuation_max_frequency: float = 400.0,
     attenuation_min_distance: float = 1.0,
+    floor_drop_db: float | None = None,
+    min_tail: int = 3,
+    point_offset: float = 0.0,
     far_field_drop_db: float = FAR_FIELD_DROP_DB,
 ) -> DecayRateResult:
     """Decay rate from band-averaged squared transfer FRFs ``|Y_i|^2``.
@@ -210,9 +288,22 @@ def decay_rate_from_band_power(
         then overestimated (a warning is logged when most far positions are rejected).
         Noise-floor contamination between the true-decay level and the ``low`` line is not
         removed (residual bias: about -3 % for D = 5 dB/m over a -25 dB floor).
+    floor_drop_db : optional flat-tail test of exclusion (a) (railfem): with it, positions
+        below ``threshold_db`` are dropped only from the first index where the rest of the
+        band's levels form a noise floor (``floor_tail_start``: at least ``min_tail``
+        finite levels whose fitted line falls by less than ``floor_drop_db`` dB). Clean
+        decaying data then lose nothing, however steep the decay; e.g. 3.0.
+    min_tail : smallest number of positions that can make a floor (with ``floor_drop_db``).
+    point_offset : realised distance of the point-FRF blow from the sensor, m, used as
+        ``x_0`` in the interval weights (railfem option; EN 15461 takes 0).
     far_field_drop_db : required fall of the level at the farthest used position.
     """
     x = _check_positions(positions)
+    x_w = _with_point_offset(x, point_offset)  # x with the realised point position, for weights
+    if floor_drop_db is not None and not (np.isfinite(floor_drop_db) and floor_drop_db > 0.0):
+        raise ValueError(f"floor_drop_db = {floor_drop_db!r} dB: give a positive fall, e.g. 3.0.")
+    if int(min_tail) != min_tail or min_tail < 2:
+        raise ValueError(f"min_tail = {min_tail!r}: give a whole number of positions >= 2.")
     centres = np.asarray(band_centres, dtype=float).reshape(-1)
     power = np.asarray(power, dtype=float)
     if power.shape != (centres.size, x.size):
@@ -242,7 +333,11 @@ def decay_rate_from_band_power(
         if not (np.isfinite(power[b, 0]) and power[b, 0] > 0.0):
             continue  # no point FRF: nothing to normalise by
         keep = np.isfinite(ratio[b])
-        if threshold_db is not None:
+        if threshold_db is not None and floor_drop_db is not None:
+            k = floor_tail_start(x, level[b], threshold_db, floor_drop_db, min_tail)
+            if k is not None:
+                keep[k:] = False
+        elif threshold_db is not None:
             below = np.flatnonzero(level[b, 1:] < threshold_db)
             if below.size:
                 keep[below[0] + 1:] = False
@@ -264,7 +359,7 @@ def decay_rate_from_band_power(
             keep &= ~reject
         keep[0] = True
         used[b] = keep
-        decay[b] = DB_PER_NEPER_POWER / _band_sum(ratio[b], x, keep)
+        decay[b] = DB_PER_NEPER_POWER / _band_sum(ratio[b], x_w, keep)
         last = np.flatnonzero(keep)[-1]
         if last > 0:
             drop[b] = -level[b, last]
@@ -273,6 +368,9 @@ def decay_rate_from_band_power(
     with np.errstate(invalid="ignore"):
         measurable = np.isfinite(decay) & (drop >= far_field_drop_db)
         suitable = measurable & (decay >= d_min)
+    has_point = np.isfinite(power[:, 0]) & (power[:, 0] > 0.0)
+    status = tuple(_status(decay[b], drop[b], d_min[b], int(n_used[b]), bool(has_point[b]),
+                           far_field_drop_db) for b in range(n_bands))
     if log.isEnabledFor(logging.INFO) and (~measurable).any():
         log.info(
             "EN 15461 decay rate: far-field %.0f dB check fails in bands %s Hz",
@@ -288,6 +386,7 @@ def decay_rate_from_band_power(
         suitable=suitable,
         n_used=n_used,
         used=used,
+        status=status,
     )
 
 

@@ -1,0 +1,132 @@
+"""Hammer measurements described by a TOML file, and one entry point for every format.
+
+:func:`read_measurement` reads a dataset folder (``frf.csv`` + ``meta.json``) or a TOML
+descriptor that points to a plain CSV table or a UFF 58 file and adds what those files do not
+hold (geometry, sensors, metadata)::
+
+    file = "export.uff"          # relative to the descriptor
+    format = "uff58"             # or "csv"; default from the suffix (.uff/.unv, .csv/.txt)
+    sleeper_spacing_m = 0.6
+    sensor_x_m = 0.3             # optional: sensor position with sleepers at n * spacing
+    excitation = "z"             # hammer direction (default z)
+    rail = "60E1"
+    unit = "g/N"                 # csv: the values' unit (required); uff: if the file has none
+
+    [positions_m]                # force label -> hammer distance from the sensor (m)
+    "node1:z" = 0.02             # UFF labels are node<ref_node>:<axis>
+    "node2:z" = 0.15
+
+    [sensors.head]               # sensor name -> its data label and place on the section
+    response = "node100:z"       # UFF: node<rsp_node>:<axis>; csv: the channels' sensor
+    direction = "z"
+    y_m = 0.0
+    z_m = 0.172
+
+    [metadata]                   # optional: date, temperature_c, section, rail_side, notes
+    date = "2024-05-01"
+
+    [csv]                        # csv only: railfem.io.frf_table.ColumnMapping fields
+    frequency = "f"
+    form = "re_im"
+    channels = [{sensor = "head", force = "p0", columns = ["H0 re", "H0 im"]}]
+"""
+from __future__ import annotations
+
+import os
+import tomllib
+from pathlib import Path
+
+from railfem.io.dataset import META_FILE, read_dataset
+from railfem.io.errors import MalformedFileError, file_error
+from railfem.io.frf_table import Channel, ColumnMapping, read_frf_table
+from railfem.io.hammer import hammer_measurement
+from railfem.io.text import read_text
+from railfem.io.uff58 import read_uff58
+from railfem.measurement import HammerMeasurement, Metadata, Sensor
+
+__all__ = ["read_measurement", "read_descriptor", "FORMATS"]
+
+FORMATS = {".uff": "uff58", ".unv": "uff58", ".csv": "csv", ".txt": "csv"}
+_TOP = {"file", "format", "sleeper_spacing_m", "sensor_x_m", "excitation", "rail", "unit",
+        "positions_m", "sensors", "metadata", "csv"}
+_SENSOR = {"response", "direction", "y_m", "z_m", "note"}
+_CSV = {"frequency", "frequency_unit", "form", "phase_unit", "db_reference", "time_convention",
+        "delimiter", "channels"}
+
+
+def read_measurement(path: str | os.PathLike, **options) -> HammerMeasurement:
+    """A hammer measurement from a dataset folder or a TOML descriptor (``.toml``).
+
+    ``options`` go to :func:`railfem.io.dataset.read_dataset` (e.g. ``quantity``).
+    """
+    path = Path(path)
+    if path.is_dir():
+        return read_dataset(path, **options)
+    if path.suffix.lower() == ".toml":
+        return read_descriptor(path, **options)
+    hint = (f"a dataset folder (frf.csv + {META_FILE}) or a .toml descriptor that points to "
+            "the file and gives the hammer positions (see railfem.io.config)")
+    if not path.exists():
+        raise file_error(MalformedFileError, path, None, "not found", f"give {hint}")
+    raise file_error(MalformedFileError, path, None,
+                     "holds FRFs but no hammer geometry", f"give {hint}")
+
+
+def _section(path, d: dict, name: str, allowed: set) -> dict:
+    if not isinstance(d, dict):
+        raise file_error(MalformedFileError, path, f"[{name}]", "not a table",
+                         f"write [{name}] as a TOML table")
+    extra = set(d) - allowed
+    if extra:
+        raise file_error(MalformedFileError, path, f"[{name}]", f"unknown key(s) {sorted(extra)}",
+                         f"use {sorted(allowed)}")
+    return d
+
+
+def read_descriptor(path: str | os.PathLike, *, quantity: str | None = None) -> HammerMeasurement:
+    """Read the measurement a TOML descriptor describes (see the module docstring)."""
+    path = Path(path)
+    try:
+        d = tomllib.loads(read_text(path))
+    except tomllib.TOMLDecodeError as err:
+        raise file_error(MalformedFileError, path, None, f"invalid TOML ({err})",
+                         "fix the TOML syntax") from None
+    _section(path, d, "top level", _TOP)
+    for key in ("file", "sleeper_spacing_m", "positions_m"):
+        if key not in d:
+            raise file_error(MalformedFileError, path, f"key {key!r}", "missing",
+                             f"add {key} (see railfem.io.config)")
+    data = (path.parent / d["file"]).resolve()
+    fmt = d.get("format") or FORMATS.get(data.suffix.lower())
+    if fmt not in ("csv", "uff58"):
+        raise file_error(MalformedFileError, path, "key 'format'", "unknown file format",
+                         "say format = 'csv' or 'uff58'", value=d.get("format", data.suffix))
+    sensors_d = _section(path, d.get("sensors", {}), "sensors", set(d.get("sensors", {})))
+    sensors = {}
+    for name, s in sensors_d.items():
+        s = _section(path, s, f"sensors.{name}", _SENSOR)
+        sensors[s.get("response", name)] = Sensor(
+            name=name, direction=s.get("direction", d.get("excitation", "z")),
+            y=s.get("y_m"), z=s.get("z_m"), note=s.get("note", ""))
+    try:
+        if fmt == "csv":
+            c = _section(path, d.get("csv", {}), "csv", _CSV)
+            if "unit" not in d:
+                raise file_error(MalformedFileError, path, "key 'unit'", "missing",
+                                 "state the unit of the table's values, e.g. unit = 'm/s/N'")
+            channels = tuple(Channel(response=ch["sensor"], force=ch["force"],
+                                     columns=tuple(ch["columns"]))
+                             for ch in c.get("channels", ()))
+            mapping = ColumnMapping(channels=channels, unit=d["unit"],
+                                    **{k: val for k, val in c.items() if k != "channels"})
+            frf = read_frf_table(data, mapping, quantity=quantity)
+        else:
+            frf = read_uff58(data, unit=d.get("unit"), quantity=quantity)
+        metadata = Metadata(**d.get("metadata", {}))
+    except (KeyError, TypeError) as err:
+        raise file_error(MalformedFileError, path, None, f"incomplete description ({err})",
+                         "see railfem.io.config for the keys") from err
+    return hammer_measurement(frf, positions=d["positions_m"],
+                              sleeper_spacing=d["sleeper_spacing_m"], sensors=sensors or None,
+                              sensor_x=d.get("sensor_x_m"), excitation=d.get("excitation", "z"),
+                              rail=d.get("rail", ""), metadata=metadata, source=str(path))

@@ -1,0 +1,333 @@
+"""The model door: a TrackSpec in, an FRF out (METHOD.md sections 2 and 3).
+
+    import railfem as rf
+    spec = rf.preset("site").replace(kp=300e6, model="wfe-periodic")
+    Y = rf.frf(spec, f, force=[rf.head(0.32)], response=[rf.head(0.3), rf.foot(0.3)])
+    tdr = rf.decay_rate(spec, f)                   # EN 15461, head sensor at mid-span
+
+``frf`` serves every model kind of railfem.spec.MODELS with any force and response
+positions (m along the rail) and any frequencies (Hz). The parameter-free part of the
+discrete and periodic models (free-rail Green's functions, railfem.track / railfem.beams)
+is cached by content (railfem.kernelcache): a second call that changes only the support
+parameters costs the coupling solve alone. The continuous WFE model has its foundation
+inside the wave solve and is recomputed on every call.
+
+Points: ``head(x)`` is a vertical force on a patch across the head top (width
+``numerics.patch_width``, spread over ``numerics.load_length`` along the rail) or the
+vertical response of the head-top node; ``foot(x)`` the response of the foot-top sensor
+node. The supported-track models take vertical forces on the head (the mirror plane);
+lateral loads are not modelled yet. Beam models have no cross-section: head and foot
+responses both read the beam's deflection at x.
+
+Discrete models: a track without deviations is periodic, so each force-response pair is
+computed on the n_supports supports re-centred on the pair (the support nearest to their
+midpoint at the centre); with deviations the supports stay at x = n * spacing and
+positions are absolute (keep them well inside the supported stretch).
+"""
+from __future__ import annotations
+
+import logging
+from dataclasses import dataclass
+from functools import lru_cache
+
+import numpy as np
+
+from . import beams, kernelcache, meshing, mobility, profiles, track, waveguide
+from .coupling import DiscreteKernel, PeriodicKernel, couple_discrete, couple_periodic
+from .frf import FRF
+from .spec import RailSpec, TrackSpec
+from .standards import en15461
+
+log = logging.getLogger(__name__)
+
+WHERE = ("head", "foot")
+POINT_OFFSET = 0.02  # m: hammer position 0 is realised 20 mm from the accelerometer
+
+
+@dataclass(frozen=True)
+class Point:
+    """A force or response point: ``where`` on the section ('head' or 'foot'), ``x`` along
+    the rail (m) and the direction ('z': vertical, the only one supported so far)."""
+
+    where: str
+    x: float
+    direction: str = "z"
+
+    def __post_init__(self):
+        if self.where not in WHERE:
+            raise ValueError(f"Point.where = {self.where!r}: use one of {', '.join(WHERE)}")
+        if not np.isfinite(self.x):
+            raise ValueError(f"Point.x = {self.x!r}: give a finite position along the rail (m)")
+        if self.direction != "z":
+            raise ValueError(f"Point.direction = {self.direction!r}: the track models take "
+                             "vertical ('z') forces and responses only")
+
+    @property
+    def label(self) -> str:
+        return f"{self.where}_{self.direction}@x={self.x:.3f}"
+
+
+def head(x: float = 0.0, direction: str = "z") -> Point:
+    """A point on the rail head at x (m)."""
+    return Point("head", float(x), direction)
+
+
+def foot(x: float = 0.0, direction: str = "z") -> Point:
+    """The foot-top sensor at x (m)."""
+    return Point("foot", float(x), direction)
+
+
+# ----------------------------------------------------------------------------- the rail
+
+
+@dataclass(frozen=True, eq=False)
+class Rail:
+    """A prepared WFE rail: waveguide, the head load patch, the output locations and the
+    foot springs, plus the content key of all of them (for the kernel cache)."""
+
+    guide: waveguide.Waveguide
+    load: mobility.Location
+    outputs: dict
+    springs: track.FootSprings
+    key: tuple
+
+
+@lru_cache(maxsize=4)
+def rail_mesh(rail: RailSpec):
+    """The mesh file if given, else the shipped mesh of (profile, h) or a new Gmsh mesh."""
+    if rail.mesh_file is not None:
+        return meshing.load_mesh(rail.mesh_file)
+    return meshing.get_mesh(profiles.get_profile(rail.profile), rail.h)
+
+
+@lru_cache(maxsize=4)
+def wfe_rail(rail: RailSpec, patch_width: float, n_foot_springs: int) -> Rail:
+    """The WFE rail of ``rail`` (memoised: a fitter's repeated calls reuse it)."""
+    mesh = rail_mesh(rail)
+    guide = waveguide.assemble(mesh, rail.material())
+    outputs = {"head": mobility.point(guide, "head_top", label="head"),
+               "foot": mobility.point(guide, "foot_sensor", label="foot")}
+    load = mobility.head_patch(guide, patch_width)
+    springs = track.foot_springs(guide, n_foot_springs)
+    m = rail.material()
+    key = (mesh.nodes, mesh.elements, (m.E, m.nu, m.rho, m.loss_factor), load.weights,
+           tuple(o.weights for o in outputs.values()), tuple(p.weights for p in springs.pairs),
+           np.asarray(springs.weight))
+    return Rail(guide=guide, load=load, outputs=outputs, springs=springs, key=key)
+
+
+@lru_cache(maxsize=8)
+def beam_section(spec_rail: RailSpec) -> beams.BeamSection:
+    """Timoshenko vertical-bending section: A, I, kappa from the mesh (railfem.section) or
+    the nominal 60E1 catalogue values, with the rail's material (METHOD.md section 3)."""
+    m = spec_rail.material()
+    if spec_rail.beam_constants == "catalogue":
+        nominal = beams.BeamSection.uic60(eta=m.loss_factor)
+        return beams.BeamSection(E=m.E, G=m.G, area=nominal.area, I=nominal.I,
+                                 kappa=nominal.kappa, rho=m.rho, eta=m.loss_factor)
+    from . import section
+
+    sc = section.section_constants(rail_mesh(spec_rail))
+    return beams.BeamSection(E=m.E, G=m.G, area=sc.area, I=sc.I_y, kappa=sc.kappa_z,
+                             rho=m.rho, eta=m.loss_factor)
+
+
+# ----------------------------------------------------------------------------- the door
+
+
+def _frequency(frequency) -> np.ndarray:
+    f = np.atleast_1d(np.asarray(frequency, dtype=float))
+    if f.ndim != 1 or f.size == 0 or not np.all(np.isfinite(f)) or np.any(f <= 0):
+        raise ValueError(f"frequency must be a non-empty 1-D array of positive finite values "
+                         f"in Hz, got {np.asarray(frequency)!r:.80}")
+    return f
+
+
+def _version() -> str:
+    from . import __version__
+
+    return __version__
+
+
+def receptance(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE,
+               cache=None, progress=None) -> np.ndarray:
+    """Receptance (nf, n_out, n_rx, n_fx) in m/N of the track ``spec``: vertical unit force
+    on the head at each force_x, response at each response_x (m) for each output in
+    ``outputs`` ('head', 'foot'). The grid form behind ``frf``.
+
+    cache: kernel cache (railfem.kernelcache.resolve: None = the default folder, a folder,
+    False = memory only, or a KernelStore)."""
+    if not isinstance(spec, TrackSpec):
+        raise TypeError(f"spec must be a TrackSpec, got {type(spec).__name__}")
+    f = _frequency(frequency)
+    fx = np.atleast_1d(np.asarray(force_x, dtype=float))
+    rx = np.atleast_1d(np.asarray(response_x, dtype=float))
+    for name, x in (("force_x", fx), ("response_x", rx)):
+        if x.ndim != 1 or not np.all(np.isfinite(x)):
+            raise ValueError(f"{name} must be a 1-D array of finite positions (m)")
+    outputs = tuple(outputs)
+    for o in outputs:
+        if o not in WHERE:
+            raise ValueError(f"output {o!r}: use 'head' or 'foot'")
+    store = kernelcache.resolve(cache)
+    model = spec.model
+    if model.endswith("discrete") and spec.uniform:
+        return _centred_on_pairs(spec, f, fx, rx, outputs, store, progress)
+    if model == "wfe-discrete":
+        return _wfe_discrete(spec, f, fx, rx, outputs, store, progress)
+    if model == "timoshenko-discrete":
+        return _beam_discrete(spec, f, fx, rx, outputs, store)
+    if model == "wfe-periodic":
+        return _wfe_periodic(spec, f, fx, rx, outputs, store, progress)
+    sep = rx[:, None] - fx[None, :]
+    if model == "timoshenko-continuous":
+        a = beams.continuous_track_receptance(beam_section(spec.rail), spec.support,
+                                              spec.spacing, 2 * np.pi * f, sep.ravel())
+        return np.repeat(a.reshape(len(f), 1, *sep.shape), len(outputs), axis=1)
+    rail = wfe_rail(spec.rail, spec.numerics.patch_width, spec.numerics.n_foot_springs)
+    u, inv = np.unique(np.round(sep, 12), return_inverse=True)
+    r = track.continuous_receptance(rail.guide, spec.support, spec.spacing, f, load=rail.load,
+                                    outputs=[rail.outputs[o] for o in outputs], x=u,
+                                    load_length=spec.numerics.load_length,
+                                    n_waves=spec.numerics.n_waves, tail=spec.numerics.tail,
+                                    progress=progress)
+    return r.receptance[:, :, inv.reshape(sep.shape), 0]
+
+
+def _centred_on_pairs(spec, f, fx, rx, outputs, store, progress):
+    """Uniform discrete tracks: each pair (x_P, x_r) is computed as (x_P - c, x_r - c), c the
+    support nearest to their midpoint; one solve serves every pair."""
+    d = spec.spacing
+    c = np.round((rx[:, None] + fx[None, :]) / (2 * d)) * d
+    uf, jf = np.unique(np.round(fx[None, :] - c, 10), return_inverse=True)
+    ur, jr = np.unique(np.round(rx[:, None] - c, 10), return_inverse=True)
+    jf, jr = jf.reshape(c.shape), jr.reshape(c.shape)
+    if spec.model == "timoshenko-discrete":
+        a = _beam_discrete(spec, f, uf, ur, outputs, store)
+    else:
+        a = _wfe_discrete(spec, f, uf, ur, outputs, store, progress)
+    return a[:, :, jr, jf]
+
+
+def _key(kind, spec, *parts):
+    n = spec.numerics
+    return kernelcache.content_key(kind, _version(), n.n_waves, n.tail, n.load_length, *parts)
+
+
+def _wfe_discrete(spec, f, fx, rx, outputs, store, progress):
+    rail = wfe_rail(spec.rail, spec.numerics.patch_width, spec.numerics.n_foot_springs)
+    lay = spec.layout()
+    xs = lay.springs().x
+    outs = [rail.outputs[o] for o in outputs]
+    key = _key("wfe-discrete", spec, rail.key, outputs, xs, lay.row_length, fx, rx, f)
+    n = spec.numerics
+
+    def compute():
+        return track.discrete_kernel(rail.guide, rail.springs, xs, f, load=rail.load,
+                                     outputs=outs, force_x=fx, response_x=rx,
+                                     spring_length=lay.row_length, load_length=n.load_length,
+                                     n_waves=n.n_waves, tail=n.tail,
+                                     progress=progress).to_arrays()
+
+    kernel = DiscreteKernel.from_arrays(store.cached(key, compute))
+    return couple_discrete(kernel, lay.spring_stiffness(2 * np.pi * f))
+
+
+def _beam_discrete(spec, f, fx, rx, outputs, store):
+    bs = beam_section(spec.rail)
+    lay = spec.layout()
+    xs = lay.springs().x
+    w = 2 * np.pi * f
+    key = _key("timoshenko-discrete", spec, repr(bs), xs, lay.row_length, fx, rx, f)
+
+    def compute():
+        return beams.discrete_kernel(bs, xs, w, fx, rx, spring_length=lay.row_length,
+                                     load_length=spec.numerics.load_length).to_arrays()
+
+    kernel = DiscreteKernel.from_arrays(store.cached(key, compute))
+    a = couple_discrete(kernel, lay.spring_stiffness(w))
+    return np.repeat(a, len(outputs), axis=1)
+
+
+def _wfe_periodic(spec, f, fx, rx, outputs, store, progress):
+    from .supports import uniform_layout
+
+    rail = wfe_rail(spec.rail, spec.numerics.patch_width, spec.numerics.n_foot_springs)
+    cell = uniform_layout(spec.support, spec.spacing, n=1, pad_length=spec.pad_length,
+                          n_rows=spec.n_rows)
+    o = cell.springs().x
+    n = spec.numerics
+    outs = [rail.outputs[x] for x in outputs]
+    key = _key("wfe-periodic", spec, rail.key, outputs, o, cell.row_length, spec.spacing,
+               n.n_theta, fx, rx, f)
+
+    def compute():
+        return track.periodic_kernel(rail.guide, rail.springs, o, spec.spacing, f,
+                                     load=rail.load, outputs=outs, force_x=fx, response_x=rx,
+                                     spring_length=cell.row_length,
+                                     load_length=n.load_length, n_theta=n.n_theta,
+                                     n_waves=n.n_waves, tail=n.tail,
+                                     progress=progress).to_arrays()
+
+    kernel = PeriodicKernel.from_arrays(store.cached(key, compute))
+    return couple_periodic(kernel, cell.spring_stiffness(2 * np.pi * f))
+
+
+def frf(spec: TrackSpec, frequency, *, force, response, quantity: str = "mobility",
+        cache=None, progress=None) -> FRF:
+    """The FRF (quantity: receptance, mobility or accelerance) of the track ``spec`` between
+    the Points ``force`` (vertical forces on the head) and ``response``, at ``frequency``
+    (Hz). values[f, i, j] is response i per unit force j."""
+    force, response = list(force), list(response)
+    if not force or not response:
+        raise ValueError("give at least one force and one response Point")
+    for p in force + response:
+        if not isinstance(p, Point):
+            raise TypeError(f"forces and responses are Points (railfem.models.head/foot), "
+                            f"got {p!r}")
+    bad = [p for p in force if p.where != "head"]
+    if bad:
+        raise ValueError(f"force at {bad[0].label}: the track models take vertical forces on "
+                         "the rail head")
+    f = _frequency(frequency)
+    fx, jf = np.unique([p.x for p in force], return_inverse=True)
+    rx, jr = np.unique([p.x for p in response], return_inverse=True)
+    outputs = tuple(o for o in WHERE if any(p.where == o for p in response))
+    a = receptance(spec, f, fx, rx, outputs=outputs, cache=cache, progress=progress)
+    jo = np.array([outputs.index(p.where) for p in response])
+    values = a[:, jo[:, None], jr[:, None], jf[None, :]]
+    out = FRF(frequency=f, values=values, quantity="receptance",
+              response=tuple(p.label for p in response), force=tuple(p.label for p in force),
+              response_x=[p.x for p in response], force_x=[p.x for p in force])
+    return out.to(quantity)
+
+
+def hammer_x(spec: TrackSpec, positions=None, offset: float = POINT_OFFSET,
+             sensor_x: float | None = None):
+    """(sensor x, hammer positions relative to it, hammer x) of an EN 15461 test on spec:
+    the sensor at mid-span (spacing / 2) unless given, positions default to the standard's
+    29 (en15461.hammer_positions), position 0 realised ``offset`` (m) from the sensor."""
+    xs = spec.spacing / 2 if sensor_x is None else float(sensor_x)
+    pos = en15461.hammer_positions(spec.spacing) if positions is None else np.asarray(
+        positions, dtype=float)
+    if not np.isfinite(offset) or offset < 0:
+        raise ValueError(f"offset = {offset!r} m: give the hammer offset at position 0, >= 0")
+    return xs, pos, xs + np.where(pos == 0, offset, pos)
+
+
+def decay_rate(spec: TrackSpec, frequency, *, output: str = "head", positions=None,
+               offset: float = POINT_OFFSET, sensor_x: float | None = None, cache=None,
+               progress=None, **options) -> en15461.DecayRateResult:
+    """EN 15461 track decay rate of ``spec`` per one-third-octave band (arrays, no files).
+
+    frequency: narrow-band frequencies (Hz, 1/9 octave or finer, e.g.
+    iec61260.ninth_octave_grid). output: the sensor, 'head' or 'foot'. positions: hammer
+    positions relative to the sensor (m), default the standard's 29 for the spacing;
+    position 0 is the point FRF, realised with the hammer ``offset`` m (default 0.02) from
+    the sensor, which sits at ``sensor_x`` (default mid-span). options go to
+    en15461.decay_rate (threshold_db, attenuation_range, ...)."""
+    xs, pos, hx = hammer_x(spec, positions, offset, sensor_x)
+    a = receptance(spec, frequency, hx, [xs], outputs=(output,), cache=cache,
+                   progress=progress)
+    f = _frequency(frequency)
+    return en15461.decay_rate(f, 2j * np.pi * f[:, None] * a[:, 0, 0, :], pos, **options)

@@ -1,0 +1,1 @@
+"""Virtual measurements from the models: train pass-bys (band levels and time signals)."""

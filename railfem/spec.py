@@ -1,0 +1,348 @@
+"""The track specification: rail, supports, pad geometry and model kind in one frozen value.
+
+``TrackSpec`` is what the model door (railfem.models) takes; presets are named specs
+(``preset('site')``, from the Table 1 sets of railfem.supports). A spec converts to and
+from a plain dict (``spec_to_dict`` / ``spec_from_dict``) with SI numbers, which is what
+``run.json`` records and what a TOML config file holds; there a number may also be written
+as a string with a unit (``kp = "600 MN/m"``, ``pad_length = "150 mm"``). Unknown keys and
+unknown units are errors naming the key.
+
+Model kinds (MODELS): ``wfe-discrete`` (WFE rail on n_supports discrete supports, each may
+deviate), ``wfe-periodic`` (infinitely many identical supports, Floquet), ``wfe-continuous``
+(foundation spread along the rail), ``timoshenko-discrete`` and ``timoshenko-continuous``
+(the beam on the same supports).
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field, fields, replace
+
+from . import validators as v
+from .materials import Material
+from .supports import PRESETS, SupportLayout, SupportParameters, preset as table1_preset
+from .supports import uniform_layout
+
+MODELS = ("wfe-discrete", "wfe-periodic", "wfe-continuous", "timoshenko-discrete",
+          "timoshenko-continuous")
+BEAM_CONSTANTS = ("mesh", "catalogue")
+H_RANGE = (0.5e-3, 0.1)  # m: finer hangs the eigen-solves, coarser cannot carry the section
+
+
+@dataclass(frozen=True, kw_only=True)
+class RailSpec:
+    """The rail: section mesh and material.
+
+    profile: '60E1' (= UIC60), 'rect:WIDTHxHEIGHT' (mm) or the path of an outline CSV.
+    h: element size of the section mesh (m), 0.5 mm to 100 mm. mesh_file: a saved mesh
+    (.npz, railfem mesh) used instead of profile and h. E (Pa), nu (-), rho (kg/m^3): steel.
+    eta: rail loss factor (-), E* = E (1 + i eta). beam_constants: where the Timoshenko
+    models take A, I and kappa from: 'mesh' (railfem.section on this mesh) or 'catalogue'
+    (nominal EN 13674-1 60E1, beams.BeamSection.uic60).
+    """
+
+    profile: str = "60E1"
+    h: float = 0.01
+    mesh_file: str | None = None
+    E: float = 2.1e11
+    nu: float = 0.3
+    rho: float = 7850.0
+    eta: float = 0.01
+    beam_constants: str = "mesh"
+
+    def __post_init__(self):
+        v.positive("RailSpec.h", self.h, "m")
+        if not H_RANGE[0] <= self.h <= H_RANGE[1]:
+            raise ValueError(f"RailSpec.h = {self.h!r} m: give an element size between "
+                             f"{H_RANGE[0] * 1e3:g} mm and {H_RANGE[1] * 1e3:g} mm (in metres "
+                             "here, e.g. 0.01; the shipped 60E1 meshes have 5-20 mm)")
+        v.one_of("RailSpec.beam_constants", self.beam_constants, BEAM_CONSTANTS)
+        v.non_negative("RailSpec.eta", self.eta, "(-)", "the rail loss factor, e.g. 0.01")
+        self.material()  # validates E, nu, rho
+
+    def material(self) -> Material:
+        return Material(E=self.E, nu=self.nu, rho=self.rho, loss_factor=self.eta)
+
+
+@dataclass(frozen=True, kw_only=True)
+class SupportDeviation:
+    """One support whose parameters differ from the others: factors on its pad stiffness
+    (kp), pad loss factor (eta_p), sleeper mass (ms), ballast stiffness (kb) and ballast
+    loss factor (eta_b). index: the support counted from the one at x = 0 (negative
+    towards -x). A factor 0 on kb is a voided (hanging) sleeper."""
+
+    index: int
+    kp: float = 1.0
+    eta_p: float = 1.0
+    ms: float = 1.0
+    kb: float = 1.0
+    eta_b: float = 1.0
+
+    def __post_init__(self):
+        if isinstance(self.index, bool) or int(self.index) != self.index:
+            raise ValueError(f"SupportDeviation.index = {self.index!r}: give an integer")
+        object.__setattr__(self, "index", int(self.index))
+        for name in ("kp", "eta_p", "ms", "kb", "eta_b"):
+            v.non_negative(f"SupportDeviation.{name}", getattr(self, name), "(factor)")
+
+    def apply(self, p: SupportParameters) -> SupportParameters:
+        return SupportParameters(kp=p.kp * self.kp, eta_p=p.eta_p * self.eta_p,
+                                 ms=p.ms * self.ms, kb=p.kb * self.kb,
+                                 eta_b=p.eta_b * self.eta_b)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Numerics:
+    """Discretisation choices (defaults are the converged ones of the tests).
+
+    n_foot_springs: springs across the rail foot per support row (-). n_waves: waves per
+    family kept by the shift-invert solver (-). tail: add the frozen near-field tail.
+    n_theta: Floquet angles of the periodic model (-). load_length: length along the rail
+    over which a force is spread (m). patch_width: width of the head load patch (m).
+    """
+
+    n_foot_springs: int = 8
+    n_waves: int = 40
+    tail: bool = True
+    n_theta: int = 512
+    load_length: float = 0.02
+    patch_width: float = 0.02
+
+    def __post_init__(self):
+        for name, low in (("n_foot_springs", 1), ("n_waves", 4), ("n_theta", 16)):
+            val = getattr(self, name)
+            if isinstance(val, bool) or int(val) != val or val < low:
+                raise ValueError(f"Numerics.{name} = {val!r}: give an integer >= {low}")
+        if not isinstance(self.tail, bool):
+            raise ValueError(f"Numerics.tail = {self.tail!r}: give true or false")
+        v.non_negative("Numerics.load_length", self.load_length, "m", "e.g. 0.02")
+        v.positive("Numerics.patch_width", self.patch_width, "m", "e.g. 0.02")
+
+
+@dataclass(frozen=True, kw_only=True)
+class TrackSpec:
+    """A track: rail + supports + pad geometry + model kind (all SI).
+
+    name: a label. model: one of MODELS. rail: RailSpec. support: SupportParameters of
+    every support (per fastener and rail). spacing: sleeper spacing (m). pad_length: length
+    of rail each support is spread over (m), 0 = point supports, less than the spacing;
+    not used by the continuous models (they spread the support uniformly). n_rows: spring
+    rows per pad (-). n_supports: supports of the discrete models (-). deviations: supports
+    of the discrete models that differ (SupportDeviation). numerics: Numerics.
+    """
+
+    name: str = "custom"
+    model: str = "wfe-discrete"
+    rail: RailSpec = field(default_factory=RailSpec)
+    support: SupportParameters
+    spacing: float = 0.6
+    pad_length: float = 0.0
+    n_rows: int = 1
+    n_supports: int = 131
+    deviations: tuple[SupportDeviation, ...] = ()
+    numerics: Numerics = field(default_factory=Numerics)
+
+    def __post_init__(self):
+        v.one_of("TrackSpec.model", self.model, MODELS)
+        if not isinstance(self.support, SupportParameters):
+            raise TypeError(f"TrackSpec.support must be SupportParameters, got "
+                            f"{type(self.support).__name__}")
+        v.positive("TrackSpec.spacing", self.spacing, "m", "the sleeper spacing, e.g. 0.6")
+        v.non_negative("TrackSpec.pad_length", self.pad_length, "m", "0 for point supports")
+        if self.pad_length >= self.spacing:
+            raise ValueError(
+                f"TrackSpec.pad_length = {self.pad_length!r} m is not shorter than the "
+                f"sleeper spacing {self.spacing!r} m: neighbouring pads would overlap; give "
+                "the pad length in m (typically 0.1-0.2)")
+        if self.pad_length > 0 and self.model.endswith("continuous"):
+            raise ValueError(
+                f"TrackSpec.pad_length = {self.pad_length!r} m with model {self.model!r}: a "
+                "continuous support is already spread along the rail; use pad_length = 0 or "
+                "a discrete/periodic model")
+        for name in ("n_rows", "n_supports"):
+            val = getattr(self, name)
+            if isinstance(val, bool) or int(val) != val or val < 1:
+                raise ValueError(f"TrackSpec.{name} = {val!r}: give an integer >= 1")
+        if self.n_rows > 1 and self.pad_length == 0:
+            raise ValueError(f"TrackSpec.n_rows = {self.n_rows} needs pad_length > 0 m (or "
+                             "n_rows = 1 for point supports)")
+        object.__setattr__(self, "deviations", tuple(self.deviations))
+        if self.deviations and not self.model.endswith("discrete"):
+            raise ValueError(f"TrackSpec.deviations need a discrete model; {self.model!r} "
+                             "has identical supports")
+        half = (self.n_supports - 1) // 2
+        seen = set()
+        for d in self.deviations:
+            if not isinstance(d, SupportDeviation):
+                raise TypeError(f"TrackSpec.deviations holds {type(d).__name__}, expected "
+                                "SupportDeviation")
+            if not -half <= d.index <= self.n_supports - 1 - half or d.index in seen:
+                raise ValueError(f"TrackSpec.deviations: support index {d.index} is repeated "
+                                 f"or outside the {self.n_supports} supports "
+                                 f"({-half}..{self.n_supports - 1 - half})")
+            seen.add(d.index)
+
+    @property
+    def uniform(self) -> bool:
+        """True when every support is the same (no deviations)."""
+        return not self.deviations
+
+    def layout(self) -> SupportLayout:
+        """The discrete supports: n_supports at x = n * spacing around x = 0, deviations
+        applied."""
+        lay = uniform_layout(self.support, self.spacing, self.n_supports,
+                             pad_length=self.pad_length, n_rows=self.n_rows)
+        if not self.deviations:
+            return lay
+        params = list(lay.params)
+        centre = (self.n_supports - 1) // 2
+        for d in self.deviations:
+            params[centre + d.index] = d.apply(self.support)
+        return replace(lay, params=tuple(params))
+
+    def replace(self, **changes) -> "TrackSpec":
+        """A copy with fields changed; also takes the support parameters kp, eta_p, ms, kb,
+        eta_b (SI) and eta_r (the rail loss factor)."""
+        sup = {k: changes.pop(k) for k in ("kp", "eta_p", "ms", "kb", "eta_b") if k in changes}
+        if sup:
+            changes["support"] = replace(changes.get("support", self.support), **sup)
+        if "eta_r" in changes:
+            changes["rail"] = replace(changes.get("rail", self.rail), eta=changes.pop("eta_r"))
+        return replace(self, **changes)
+
+
+def preset(name: str, **changes) -> TrackSpec:
+    """The Table 1 track ``name`` (railfem.supports.PRESETS) as a spec, with ``changes``
+    applied as in TrackSpec.replace (e.g. model='wfe-periodic', kp=300e6)."""
+    tp = table1_preset(name)
+    spec = TrackSpec(name=tp.name, support=tp.support, spacing=tp.spacing,
+                     rail=RailSpec(eta=tp.eta_r))
+    return spec.replace(**changes) if changes else spec
+
+
+# --------------------------------------------------------------------- dict / TOML form
+
+UNITS = {
+    "stiffness": {"N/m": 1.0, "kN/m": 1e3, "MN/m": 1e6, "GN/m": 1e9},
+    "mass": {"kg": 1.0, "t": 1e3},
+    "length": {"m": 1.0, "cm": 1e-2, "mm": 1e-3},
+    "pressure": {"Pa": 1.0, "MPa": 1e6, "GPa": 1e9},
+    "density": {"kg/m^3": 1.0, "kg/m3": 1.0},
+}
+
+#: section -> key -> quantity kind (UNITS), 'number', 'int', 'bool' or 'str'
+SCHEMA = {
+    "": {"preset": "str", "name": "str", "model": "str"},
+    "support": {"kp": "stiffness", "eta_p": "number", "ms": "mass", "kb": "stiffness",
+                "eta_b": "number"},
+    "track": {"spacing": "length", "pad_length": "length", "n_rows": "int",
+              "n_supports": "int"},
+    "rail": {"profile": "str", "h": "length", "mesh_file": "str", "E": "pressure",
+             "nu": "number", "rho": "density", "eta": "number", "beam_constants": "str"},
+    "numerics": {"n_foot_springs": "int", "n_waves": "int", "tail": "bool",
+                 "n_theta": "int", "load_length": "length", "patch_width": "length"},
+    "deviation": {"index": "int", "kp": "number", "eta_p": "number", "ms": "number",
+                  "kb": "number", "eta_b": "number"},
+}
+
+
+def parse_value(key: str, value, kind: str):
+    """A config value as SI: numbers as given, strings 'NUMBER UNIT' converted with UNITS."""
+    if kind == "str":
+        if not isinstance(value, str):
+            raise ValueError(f"{key} = {value!r}: give a string")
+        return value
+    if kind == "bool":
+        if not isinstance(value, bool):
+            raise ValueError(f"{key} = {value!r}: give true or false")
+        return value
+    if kind == "int":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise ValueError(f"{key} = {value!r}: give an integer")
+        return value
+    if isinstance(value, str) and kind in UNITS:
+        parts = value.split()
+        if len(parts) != 2:
+            raise ValueError(f"{key} = {value!r}: write a number and a unit, e.g. "
+                             f"'{1} {next(iter(UNITS[kind]))}'")
+        number, unit = parts
+        if unit not in UNITS[kind]:
+            raise ValueError(f"{key} = {value!r}: unknown unit {unit!r} for a {kind}; use one "
+                             f"of {', '.join(UNITS[kind])}")
+        try:
+            x = float(number)
+        except ValueError:
+            raise ValueError(f"{key} = {value!r}: {number!r} is not a number") from None
+        return x * UNITS[kind][unit]
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        unit = f" ({next(iter(UNITS[kind]))} if a plain number)" if kind in UNITS else ""
+        raise ValueError(f"{key} = {value!r}: give a number{unit}")
+    return float(value)
+
+
+def _section(prefix: str, table, kinds: dict) -> dict:
+    if not isinstance(table, dict):
+        raise ValueError(f"{prefix} must be a table of keys, got {table!r}")
+    out = {}
+    for key, value in table.items():
+        name = f"{prefix}.{key}" if prefix else key
+        if key not in kinds:
+            raise ValueError(f"unknown key {name!r}; valid keys: {', '.join(kinds)}")
+        out[key] = parse_value(name, value, kinds[key])
+    return out
+
+
+def spec_from_dict(d: dict, base: TrackSpec | None = None) -> TrackSpec:
+    """A TrackSpec from the dict/TOML form (see SCHEMA), on top of ``base`` or of the
+    ``preset`` it names (default: the site preset). Errors name the offending key."""
+    if not isinstance(d, dict):
+        raise ValueError(f"a track spec must be a table of keys, got {type(d).__name__}")
+    sections = {k for k in SCHEMA if k} | {"deviations"}
+    top = {k: x for k, x in d.items() if k not in sections}
+    top = _section("", top, SCHEMA[""])
+    if "preset" in top:
+        if top["preset"] not in PRESETS:
+            raise ValueError(f"preset = {top['preset']!r} is unknown; use one of "
+                             f"{', '.join(PRESETS)}")
+        base = preset(top.pop("preset"))
+    spec = base or preset("site")
+    sup = _section("support", d.get("support", {}), SCHEMA["support"])
+    trk = _section("track", d.get("track", {}), SCHEMA["track"])
+    rail = _section("rail", d.get("rail", {}), SCHEMA["rail"])
+    num = _section("numerics", d.get("numerics", {}), SCHEMA["numerics"])
+    devs = d.get("deviations", None)
+    changes = dict(top, **trk)
+    for name, values, obj in (("support", sup, spec.support), ("rail", rail, spec.rail),
+                              ("numerics", num, spec.numerics)):
+        if values:
+            changes[name] = _named(name, lambda: replace(obj, **values))
+    if devs is not None:
+        if not isinstance(devs, list):
+            raise ValueError("deviations must be a list of tables ([[deviations]] in TOML)")
+        changes["deviations"] = tuple(
+            _named(f"deviations[{j}]", lambda t=t, j=j: SupportDeviation(
+                **_section(f"deviations[{j}]", t, SCHEMA["deviation"])))
+            for j, t in enumerate(devs))
+    return _named("track", lambda: replace(spec, **changes))
+
+
+def _named(section: str, build):
+    """build(), with the config section named in a validation error."""
+    try:
+        return build()
+    except (ValueError, TypeError) as exc:
+        msg = str(exc)
+        raise ValueError(msg if msg.startswith(f"{section}.") else f"[{section}] {msg}") from None
+
+
+def spec_to_dict(spec: TrackSpec) -> dict:
+    """The dict form of a spec with every value (SI numbers): spec_from_dict inverts it."""
+    rail = asdict(spec.rail)
+    if rail["mesh_file"] is None:
+        del rail["mesh_file"]
+    return {
+        "name": spec.name, "model": spec.model,
+        "support": {f.name: getattr(spec.support, f.name) for f in fields(spec.support)},
+        "track": {"spacing": spec.spacing, "pad_length": spec.pad_length,
+                  "n_rows": spec.n_rows, "n_supports": spec.n_supports},
+        "rail": rail, "numerics": asdict(spec.numerics),
+        "deviations": [asdict(d) for d in spec.deviations],
+    }
