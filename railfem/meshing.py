@@ -206,7 +206,7 @@ def _curves(pts: np.ndarray, closed: bool) -> list[tuple[str, list[int]]]:
     more collinear points and each single segment between corners, ('spline', [i, ..., j])
     for each curved run. Breaks are corners (turning above CORNER_ANGLE_DEG) and the ends of
     straight runs, so a flat foot underside stays exactly flat and a fillet is one smooth
-    spline tangent-ish to its neighbours. Indices run past len(pts) for a closed outline."""
+    spline nearly tangent to its neighbours. Indices run past len(pts) for a closed outline."""
     n = len(pts)
     turn = np.abs(_turning(pts, closed))
     if closed:
