@@ -76,6 +76,18 @@ def _add_profile(p: argparse.ArgumentParser, h_default: float | None = 10.0) -> 
                        help=f"element size in mm (default {h_default:g})")
 
 
+def _add_mesh_file(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--mesh", type=Path, default=None, metavar="FILE",
+                   help="use this section mesh instead of --profile/--h: a railfem .npz "
+                        "(railfem mesh) or any 2-D mesh file meshio reads (Gmsh .msh 2.2 / "
+                        "4.x, 3- or 6-node triangles); symmetry is detected")
+    p.add_argument("--mesh-units", choices=("m", "mm"), default=None,
+                   help="length unit of a --mesh file that is not .npz (required for those)")
+    p.add_argument("--mesh-axes", default="xy", metavar="AXES",
+                   help="which axes of a --mesh file are lateral and vertical: 'xy' "
+                        "(default: x lateral, y vertical), 'xz', '-y,z', ...")
+
+
 # ------------------------------------------------------------------------- mesh
 def _mesh_args(p: argparse.ArgumentParser) -> None:
     _add_profile(p)
@@ -104,8 +116,7 @@ def _mesh_run(args) -> int:
 # ------------------------------------------------------------------- dispersion
 def _dispersion_args(p: argparse.ArgumentParser) -> None:
     _add_profile(p)
-    p.add_argument("--mesh", type=Path, default=None, metavar="FILE.npz",
-                   help="use this saved mesh (railfem mesh) instead of --profile/--h")
+    _add_mesh_file(p)
     g = p.add_argument_group("frequencies (k(omega), default) or wavenumbers (omega(k))")
     g.add_argument("--fmin", type=_positive, default=None, metavar="HZ",
                    help="lowest frequency in Hz (default 50)")
@@ -170,6 +181,7 @@ def _dispersion_run(args) -> int:
                   else args.render_frequency)
     paths = jobs.run_dispersion(args.profile, args.h * 1e-3, args.out, frequencies=frequencies,
                                 k_values=k_values, mesh_file=args.mesh,
+                                mesh_units=args.mesh_units, mesh_axes=args.mesh_axes,
                                 loss_factor=args.loss_factor, method=args.method,
                                 n_waves=args.n_waves, n_modes=args.n_modes,
                                 render_frequency=render)
@@ -191,6 +203,13 @@ def _convergence_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--reference", choices=("richardson", "finest"), default="richardson",
                    help="error reference: Richardson extrapolation of the three finest "
                         "meshes (default) or the finest mesh")
+    p.add_argument("--geometry", choices=("curved", "straight", "both"), default="curved",
+                   help="curved 6-node elements (mid-side nodes on the outline, default), "
+                        "their straight-sided twins, or both (straight in "
+                        "convergence_straight.*)")
+    p.add_argument("--shipped", action="store_true",
+                   help="use the shipped meshes (meshes/) where there is one for the size "
+                        "instead of meshing afresh")
     p.add_argument("--out", type=Path, default=Path("railfem-output/convergence"),
                    metavar="DIR", help="output folder (default railfem-output/convergence)")
 
@@ -200,16 +219,27 @@ def _convergence_run(args) -> int:
 
     sizes = np.array(args.sizes) * 1e-3
     paths = jobs.run_convergence(args.profile, sizes, args.out, frequencies=args.frequencies,
-                                 n_cut_on=args.n_cut_on, reference=args.reference)
-    st = paths["study"]
-    sys.stdout.write("h (mm)  DOFs   cut-on frequencies (Hz)\n")
-    for i, h in enumerate(st.sizes):
-        sys.stdout.write(f"{h * 1e3:6g} {st.n_dofs[i]:6d}  "
-                         + " ".join(f"{v:9.1f}" for v in st.cut_on[i]) + "\n")
-    sys.stdout.write("reference     " + " ".join(f"{v:9.1f}" for v in st.cut_on_reference)
-                     + f"  ({st.reference['cut_on']})\n")
-    sys.stdout.write("rate          " + " ".join(f"{v:9.2f}" for v in st.cut_on_rate) + "\n")
-    sys.stdout.write(f"wrote {paths['csv']}\nwrote {paths['png']}\nwrote {paths['json']}\n")
+                                 n_cut_on=args.n_cut_on, reference=args.reference,
+                                 geometry=args.geometry, use_shipped=args.shipped)
+    for suffix in ("", "_straight"):
+        if f"study{suffix}" not in paths:
+            continue
+        st = paths[f"study{suffix}"]
+        sys.stdout.write(f"{'curved' if st.curved else 'straight-sided'} 6-node elements\n"
+                         "h (mm)  DOFs   cut-on frequencies (Hz)\n")
+        for i, h in enumerate(st.sizes):
+            sys.stdout.write(f"{h * 1e3:6g} {st.n_dofs[i]:6d}  "
+                             + " ".join(f"{v:9.2f}" for v in st.cut_on[i]) + "\n")
+        sys.stdout.write("reference     " + " ".join(f"{v:9.2f}" for v in st.cut_on_reference)
+                         + f"  ({st.reference['cut_on']})\n")
+        sys.stdout.write("error finest  " + " ".join(f"{100 * v:8.4f}%" for v in
+                                                     st.cut_on_error[np.argmin(st.sizes)])
+                         + "\n")
+        sys.stdout.write("rate          " + " ".join(f"{v:9.2f}" for v in st.cut_on_rate) + "\n")
+        sys.stdout.write("Richardson p  " + " ".join(f"{v:9.2f}" for v in st.cut_on_order)
+                         + "\n")
+        sys.stdout.write(f"wrote {paths['csv' + suffix]}\nwrote {paths['png' + suffix]}\n"
+                         f"wrote {paths['json' + suffix]}\n")
     return 0
 
 
@@ -436,8 +466,7 @@ def _finite(text: str) -> float:
 
 def _mobility_args(p: argparse.ArgumentParser) -> None:
     _add_profile(p)
-    p.add_argument("--mesh", type=Path, default=None, metavar="FILE.npz",
-                   help="use this saved mesh (railfem mesh) instead of --profile/--h")
+    _add_mesh_file(p)
     p.add_argument("--free", action="store_true",
                    help="free (unsupported) rail; the only model of this command, so it is "
                         "also the default")
@@ -483,7 +512,8 @@ def _mobility_run(args) -> int:
                                           responses=args.response, x=x,
                                           patch_width=args.patch_width,
                                           load_length=args.load_length, eta=args.eta,
-                                          mesh_file=args.mesh, method=args.method,
+                                          mesh_file=args.mesh, mesh_units=args.mesh_units,
+                                          mesh_axes=args.mesh_axes, method=args.method,
                                           n_waves=args.n_waves)
     sys.stdout.write(f"wrote {paths['csv']}\nwrote {paths['png']}\nwrote {paths['json']}\n")
     return 0

@@ -110,7 +110,7 @@ def wfe_rail(rail: RailSpec, patch_width: float, n_foot_springs: int) -> Rail:
     load = mobility.head_patch(guide, patch_width)
     springs = track.foot_springs(guide, n_foot_springs)
     m = rail.material()
-    key = (mesh.vertices, mesh.triangles, (m.E, m.nu, m.rho, m.loss_factor), load.weights,
+    key = (mesh.nodes, mesh.elements, (m.E, m.nu, m.rho, m.loss_factor), load.weights,
            tuple(o.weights for o in outputs.values()), tuple(p.weights for p in springs.pairs),
            np.asarray(springs.weight))
     return Rail(guide=guide, load=load, outputs=outputs, springs=springs, key=key)
