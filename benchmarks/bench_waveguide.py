@@ -230,7 +230,6 @@ def old_shift_invert(ops, omega, n):
 
 def old_frozen_tail(ops, omega0, n):
     """All waves by the dense complex solve of the inverted form, then those beyond n."""
-    import numpy as np
     import scipy.linalg as sl
 
     A = old_constant_matrix(ops, omega0).toarray()
@@ -328,10 +327,9 @@ def tail_table(args, emit):
         ops = waves.FamilyOperators(guide, "symmetric")
         om0 = 2 * np.pi * 50.0
         res = {}
-        for name, fn in (("old", lambda: old_frozen_tail(ops, om0, 40)),
-                         ("new", lambda: waves.frozen_tail(ops, om0, 40))):
+        for name, fn in (("old", old_frozen_tail), ("new", waves.frozen_tail)):
             tracemalloc.start()
-            out, wall, _ = clocks(fn)
+            out, wall, _ = clocks(fn, ops, om0, 40)
             peak = tracemalloc.get_traced_memory()[1] / 1e6
             tracemalloc.stop()
             if name == "old":
