@@ -123,9 +123,11 @@ def _springs(guide, case: SupportCase):
     return track.foot_springs(guide, case.n_width, rule=case.rule)
 
 
-def _head_point_mobility(guide, tp, case, f, n_supports):
-    """|Y| of the head point mobility at frequencies f (Hz) on the discrete track; the
-    frozen tail is taken at TAIL_FREQUENCY for every call (one shared, cached tail)."""
+def head_point_mobility(guide, tp: TrackPreset, case: SupportCase, f,
+                        n_supports: int = 41) -> np.ndarray:
+    """|Y| (m/s/N) of the head point mobility at frequencies f (Hz) on the discrete track
+    of ``case`` (sensor at mid-span, hammer POINT_OFFSET away); the frozen tail is taken at
+    TAIL_FREQUENCY for every call (one shared, cached tail)."""
     d = tp.spacing
     layout = uniform_layout(tp.support, d, n_supports, pad_length=case.pad_length,
                             n_rows=case.n_rows)
@@ -154,7 +156,7 @@ def rail_pad_peak(case: SupportCase, preset: str | TrackPreset = "site", *,
     t0 = time.perf_counter()
     lo, hi = pad_band(tp, guide)
     grid = np.arange(np.ceil(lo / step) * step, hi + 1e-9, step)
-    Y = _head_point_mobility(guide, tp, case, grid, n_supports)
+    Y = head_point_mobility(guide, tp, case, grid, n_supports)
     i = int(np.argmax(Y))
     if i in (0, len(grid) - 1):
         raise ValueError(f"{case.label}: the largest mobility in {lo:.0f}-{hi:.0f} Hz lies "
@@ -163,7 +165,7 @@ def rail_pad_peak(case: SupportCase, preset: str | TrackPreset = "site", *,
 
     def minus(f):
         count[0] += 1
-        return -float(_head_point_mobility(guide, tp, case, [f], n_supports)[0])
+        return -float(head_point_mobility(guide, tp, case, [f], n_supports)[0])
 
     res = minimize_scalar(minus, bounds=(grid[i - 1], grid[i + 1]), method="bounded",
                           options={"xatol": xtol})
@@ -316,5 +318,6 @@ def decay_csv(rates: dict) -> str:
 
 
 __all__ = ["PEAK_COLUMNS", "POINT_OFFSET", "TAIL_FREQUENCY", "DecayResult", "PeakResult",
-           "Rails", "SupportCase", "changes", "decay_csv", "decay_rates", "pad_band",
+           "Rails", "SupportCase", "changes", "decay_csv", "decay_rates", "head_point_mobility",
+           "pad_band",
            "peak_csv", "peak_rows", "peak_table", "rail_pad_peak", "support_study", "sweeps"]

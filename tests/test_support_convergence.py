@@ -39,7 +39,7 @@ def test_peak_finder_agrees_with_a_fine_grid():
     p = sc.rail_pad_peak(case, n_supports=21, rails=rails())
     guide = rails().get(0.02)
     f = np.arange(np.round(p.frequency) - 6, np.round(p.frequency) + 6.01, 0.5)
-    Y = sc._head_point_mobility(guide, SITE, case, f, 21)
+    Y = sc.head_point_mobility(guide, SITE, case, f, 21)
     assert abs(f[np.argmax(Y)] - p.frequency) <= 0.5
     assert 20 * np.log10(Y.max()) <= p.level_db + 1e-6
     assert p.n_evaluations < 50
