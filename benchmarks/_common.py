@@ -12,6 +12,12 @@ def limit_threads(n: int) -> None:
         os.environ[var] = str(n)
 
 
+def no_wave_cache() -> None:
+    """Switch railfem's in-memory wave cache off (before railfem solves anything), so that
+    repeated timings of the same solve measure the solve, not a cache hit."""
+    os.environ["RAILFEM_WAVE_CACHE_MB"] = "0"
+
+
 def machine_lines(threads: int) -> list[str]:
     """When and where the benchmark ran: date, host, CPUs, versions, BLAS threads, load."""
     import numpy as np

@@ -29,7 +29,7 @@ import sys
 import time
 from pathlib import Path
 
-from _common import limit_threads, machine_lines
+from _common import limit_threads, machine_lines, no_wave_cache
 
 
 def parse_args(argv=None):
@@ -51,6 +51,7 @@ def parse_args(argv=None):
 def main(argv=None):
     args = parse_args(argv)
     limit_threads(args.threads)
+    no_wave_cache()
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     import numpy as np
 

@@ -1,9 +1,24 @@
 """Benchmark of the free-rail waveguide: DOFs, assembly time and time per frequency of k(omega).
 
-    python benchmarks/bench_waveguide.py                       # default: 10 and 7.5 mm
+    python benchmarks/bench_waveguide.py                       # all three tables
     python benchmarks/bench_waveguide.py --sizes 10 5 --full 20 10 --threads 2
+    python benchmarks/bench_waveguide.py --sizes --full --speed-sizes 5 --tail-sizes  # one table
 
-Per mesh (60E1, shipped meshes when present):
+Table 1, solver speed, old path vs this railfem (--speed-sizes, default 10 and 5 mm): time
+per frequency of k(omega) for the n smallest-|k| waves by shift-invert, (i) with the mirror
+split (--n-split waves per family, both families, default 25) and (ii) for the whole section
+solved as one family (--n-whole waves, default 50; T = identity, built here), undamped and
+with the rail loss factor 0.01. "old" is the path of railfem before the solver rework,
+kept as functions in this script (lil build of A(omega) per frequency, COLAMD ordering,
+complex arithmetic throughout, ARPACK's own start vector); "new" is waves.waves_at with its
+cache off. Wall and CPU (process) time: CPU time is the honest figure on a shared machine.
+
+Table 2, the frozen near-field tail (--tail-sizes, default 10 and 5 mm; symmetric family,
+40 retained waves, 50 Hz, loss factor 0.01): old (dense complex solve of the inverted form
+with the loss factor) vs new (waves.frozen_tail: undamped, real arithmetic, direct form,
+first-order loss shift): time and peak memory of numpy allocations (tracemalloc).
+
+Table 3, the formulations (--sizes, --full), per mesh (60E1, shipped meshes when present):
 
 * DOFs, total and per symmetry family; time to load/mesh and to assemble K0, K1, K2, M;
 * time per frequency of k(omega) with
@@ -29,17 +44,25 @@ import sys
 import time
 from pathlib import Path
 
-from _common import limit_threads, machine_lines
+from _common import limit_threads, machine_lines, no_wave_cache
 
 
 def parse_args(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("--sizes", type=float, nargs="+", default=[10.0, 7.5],
+    p.add_argument("--speed-sizes", type=float, nargs="*", default=[10.0, 5.0],
+                   help="sizes (mm) of the old-vs-new solver table (default 10 5)")
+    p.add_argument("--n-split", type=int, default=25, help="waves per family, mirror split")
+    p.add_argument("--n-whole", type=int, default=50, help="waves of the whole section")
+    p.add_argument("--repeat", type=int, default=2,
+                   help="timings per frequency in table 1; the fastest is kept (default 2)")
+    p.add_argument("--tail-sizes", type=float, nargs="*", default=[10.0, 5.0],
+                   help="sizes (mm) of the frozen-tail table (default 10 5)")
+    p.add_argument("--sizes", type=float, nargs="*", default=[10.0, 7.5],
                    help="element sizes in mm (default 10 7.5)")
     p.add_argument("--full", type=float, nargs="*", default=[20.0, 10.0],
                    help="sizes (mm) on which to time the full 2N linearisation (default 20 10)")
     p.add_argument("--frequencies", type=float, nargs="+", default=[100.0, 1000.0, 3000.0],
-                   help="frequencies (Hz) timed for (b) and (c)")
+                   help="frequencies (Hz) timed in table 1 and for (b) and (c)")
     p.add_argument("--full-frequency", type=float, default=1000.0,
                    help="frequency (Hz) timed for (a) (one solve: it is slow)")
     p.add_argument("--threads", type=int, default=1, help="BLAS threads (default 1)")
@@ -51,6 +74,7 @@ def parse_args(argv=None):
 def main(argv=None):
     args = parse_args(argv)
     limit_threads(args.threads)
+    no_wave_cache()
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     import numpy as np
     import scipy.linalg as sl
@@ -86,6 +110,15 @@ def main(argv=None):
     emit("railfem waveguide benchmark (60E1)")
     for line in machine_lines(args.threads):
         emit(line)
+    emit("")
+    if args.speed_sizes:
+        speed_table(args, emit)
+    if args.tail_sizes:
+        tail_table(args, emit)
+    if not (args.sizes or args.full):
+        finish(args, lines)
+        return
+    emit("Table 3: formulations")
     emit(f"  (b), (c) timed at {', '.join(f'{f:g}' for f in args.frequencies)} Hz (mean per "
          f"frequency, both families); (a) at {args.full_frequency:g} Hz")
     emit("")
@@ -144,9 +177,182 @@ def main(argv=None):
     emit("(a) all 2N roots of the unreduced problem; (b) all N roots (both families, k^2);")
     emit("(c) 40 waves of smallest |k| per family. Ratios from times measured in this run;")
     emit("rows without (b)/(c) timings over the frequency list use the (a) frequency.")
+    finish(args, lines)
+
+
+def finish(args, lines):
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text("\n".join(lines) + "\n")
     print(f"wrote {args.out}")
+
+
+# ------------------------------------------------------------- the old path, for reference
+def old_constant_matrix(ops, omega):
+    """A(omega) as railfem built it before the rework: a lil matrix per frequency."""
+    na = ops.na
+    Z = (ops.c * ops.K0 - omega**2 * ops.M).tolil()
+    Z[:na, na:] = ops.c * ops.K1[:na, na:]
+    return Z.tocsc()
+
+
+def old_waves(ops, omega, lam, x):
+    """The old post-processing of (lambda, vector) pairs into positive-going waves."""
+    import numpy as np
+
+    from railfem.waves import Waves
+
+    k = np.sqrt(lam.astype(complex))
+    k = np.where(k.imag > 0, -k, k)
+    x = x.astype(complex)
+    x[: ops.na] *= 1j * k
+    undamped = np.abs(k.imag) <= 1e-6 * np.abs(k)
+    if undamped.any():
+        kr = k[undamped].real
+        cg = ops.group_velocity(omega, kr, x[:, undamped])
+        k[undamped] = np.where(cg >= 0, kr, -kr)
+        x[: ops.na, undamped] *= np.where(cg >= 0, 1.0, -1.0)
+    idx = np.argsort(np.abs(k))
+    k, x = k[idx], x[:, idx]
+    x /= np.linalg.norm(x, axis=0)
+    return Waves(family=ops.family, omega=omega, k=k, phi=ops.to_reduced(x),
+                 denom=ops.dA(k, x))
+
+
+def old_shift_invert(ops, omega, n):
+    import scipy.sparse.linalg as spl
+
+    lu = spl.splu(old_constant_matrix(ops, omega))
+    B = ops.B.astype(complex)
+    op = spl.LinearOperator(B.shape, dtype=complex, matvec=lambda x: lu.solve(-(B @ x)))
+    nu, vec = spl.eigs(op, k=min(n, B.shape[0] - 2), which="LM", tol=1e-10)
+    return old_waves(ops, omega, 1.0 / nu, vec)
+
+
+def old_frozen_tail(ops, omega0, n):
+    """All waves by the dense complex solve of the inverted form, then those beyond n."""
+    import scipy.linalg as sl
+
+    A = old_constant_matrix(ops, omega0).toarray()
+    B = ops.B.toarray().astype(complex)
+    lu, piv = sl.lu_factor(A, check_finite=False)
+    nu, x = sl.eig(sl.lu_solve((lu, piv), -B, check_finite=False), check_finite=False,
+                   overwrite_a=True)
+    w = old_waves(ops, omega0, 1.0 / nu, x)
+    return w.k[n:], w.phi[:, n:], w.denom[n:]
+
+
+def whole_section(guide):
+    """The waveguide with one more family, 'full': every DOF, T = identity (no mirror)."""
+    import dataclasses
+
+    import numpy as np
+    import scipy.sparse as sp
+
+    from railfem.waveguide import Family
+
+    comp = np.empty(guide.n_dofs, dtype=int)
+    for c in range(3):
+        comp[guide.node_dofs[:, c]] = c
+    full = Family(name="full", T=sp.identity(guide.n_dofs, format="csr"), component=comp)
+    return dataclasses.replace(guide, families={**guide.families, "full": full})
+
+
+def clocks(fn, *a, repeat=1, **kw):
+    """(result, best wall time, best CPU time) of fn(*a, **kw) over `repeat` runs."""
+    best_w = best_c = float("inf")
+    for _ in range(repeat):
+        w0, c0 = time.perf_counter(), time.process_time()
+        out = fn(*a, **kw)
+        best_w = min(best_w, time.perf_counter() - w0)
+        best_c = min(best_c, time.process_time() - c0)
+    return out, best_w, best_c
+
+
+def speed_table(args, emit):
+    import numpy as np
+
+    from railfem import meshing, waveguide, waves
+    from railfem.materials import Material
+
+    emit(f"Table 1: k(omega) by shift-invert, old path vs new, seconds per frequency (mean "
+         f"over {', '.join(f'{f:g}' for f in args.frequencies)} Hz, best of {args.repeat})")
+    head = (f"{'h mm':>5} {'eta':>5} {'case':<22} {'DOFs':>6} {'old wall':>9} {'new wall':>9} "
+            f"{'old CPU':>8} {'new CPU':>8} {'CPU ratio':>9} {'max|dk|/|k|':>12}")
+    emit(head)
+    emit("-" * len(head))
+    for hmm in args.speed_sizes:
+        mesh = meshing.get_mesh("60E1", hmm * 1e-3)
+        for eta in (0.0, 0.01):
+            guide = whole_section(waveguide.assemble(mesh, Material.steel(eta)))
+            cases = [(f"split, {args.n_split}/family", waveguide.FAMILIES, args.n_split),
+                     (f"whole, {args.n_whole} waves", ("full",), args.n_whole)]
+            for name, fams, n in cases:
+                ops = [waves.FamilyOperators(guide, fam) for fam in fams]
+                t = np.zeros(4)
+                dk = 0.0
+                for f in args.frequencies:
+                    om = 2 * np.pi * f
+                    for op in ops:
+                        old, wo, co = clocks(old_shift_invert, op, om, n, repeat=args.repeat)
+                        new, wn, cn = clocks(waves.waves_at, op, om, method="shift-invert",
+                                             n_waves=n, repeat=args.repeat)
+                        t += [wo, wn, co, cn]
+                        d = np.abs(old.k[:, None] - new.k[None, :]).min(axis=1)
+                        dk = max(dk, float((d / np.abs(old.k)).max()))
+                t /= len(args.frequencies)
+                dofs = sum(op.B0.shape[0] for op in ops)
+                emit(f"{hmm:5g} {eta:5g} {name:<22} {dofs:6d} {t[0]:9.3f} {t[1]:9.3f} "
+                     f"{t[2]:8.3f} {t[3]:8.3f} {t[2] / t[3]:9.2f} {dk:12.1e}")
+    emit("split: both mirror families, DOFs summed; whole: the section as one family.")
+    emit("max|dk|/|k|: largest distance of an old wavenumber from the nearest new one.")
+    emit("")
+
+
+def tail_table(args, emit):
+    import tracemalloc
+
+    import numpy as np
+
+    from railfem import meshing, mobility, waveguide, waves
+    from railfem.materials import Material
+
+    emit("Table 2: frozen near-field tail (symmetric family, 40 retained waves, 50 Hz, "
+         "eta 0.01)")
+    head = (f"{'h mm':>5} {'DOFs':>6} {'old s':>8} {'new s':>8} {'ratio':>6} "
+            f"{'old MB':>7} {'new MB':>7} {'head point: old err':>20} {'new err':>8}")
+    emit(head)
+    emit("-" * len(head))
+    for hmm in args.tail_sizes:
+        guide = waveguide.assemble(meshing.get_mesh("60E1", hmm * 1e-3), Material.steel(0.01))
+        ops = waves.FamilyOperators(guide, "symmetric")
+        om0 = 2 * np.pi * 50.0
+        res = {}
+        for name, fn in (("old", old_frozen_tail), ("new", waves.frozen_tail)):
+            tracemalloc.start()
+            out, wall, _ = clocks(fn, ops, om0, 40)
+            peak = tracemalloc.get_traced_memory()[1] / 1e6
+            tracemalloc.stop()
+            if name == "old":
+                out = waves.Waves(family="symmetric", omega=om0, k=out[0], phi=out[1],
+                                  denom=out[2])
+            res[name] = (out, wall, peak)
+        # accuracy: head point receptance (20 mm patch, 20 mm load length) at 2 kHz against
+        # all waves at 2 kHz (dense solve), with 40 retained waves + each tail
+        hp = mobility.head_patch(guide, 0.02)
+        fr = mobility.FamilyResponse(guide, "symmetric", hp.weights[:, None],
+                                     hp.weights[:, None])
+        om = 2 * np.pi * 2000.0
+        ref = mobility.wave_sum(fr, waves.waves_at(ops, om, method="dense"), [0.0], 0.02)
+        kept = waves.waves_at(ops, om, method="shift-invert", n_waves=40)
+        err = {name: float(np.abs(mobility.wave_sum(fr, waves.join(kept, r[0]), [0.0], 0.02)
+                                   - ref).max() / np.abs(ref).max())
+               for name, r in res.items()}
+        emit(f"{hmm:5g} {ops.B0.shape[0]:6d} {res['old'][1]:8.2f} {res['new'][1]:8.2f} "
+             f"{res['old'][1] / res['new'][1]:6.2f} {res['old'][2]:7.0f} {res['new'][2]:7.0f} "
+             f"{err['old']:20.1e} {err['new']:8.1e}")
+    emit("MB: peak of numpy allocations (tracemalloc) during the tail solve. err: relative")
+    emit("error of the 2 kHz head point receptance (retained waves + tail) against all waves.")
+    emit("")
 
 
 if __name__ == "__main__":

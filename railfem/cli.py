@@ -674,6 +674,50 @@ def _fit_run(args) -> int:
     return 0
 
 
+def _support_args(p: argparse.ArgumentParser) -> None:
+    from .footprints import RULES
+    from .supports import PRESETS
+
+    _add_profile(p, h_default=None)
+    p.add_argument("--preset", choices=sorted(PRESETS), default="site",
+                   help="track parameter set of METHOD.md Table 1 (default site)")
+    p.add_argument("--sizes", type=_positive, nargs="+", default=[10, 7.5, 5], metavar="MM",
+                   help="section element sizes in mm (default 10 7.5 5)")
+    p.add_argument("--width", type=_count, nargs="+", default=[16, 32, 64], metavar="N",
+                   help="springs across the foot (default 16 32 64)")
+    p.add_argument("--rule", choices=RULES, default="midpoint",
+                   help="springs across the foot: midpoint (distributed bed, default) or "
+                        "nodes (the published configuration)")
+    p.add_argument("--pad-lengths", type=_non_negative, nargs="+", default=[0.0, 0.15],
+                   metavar="M", help="pad lengths along the rail in m; 0 = point-like "
+                                     "(default 0 0.15)")
+    p.add_argument("--rows", type=_count, nargs="+", default=[1, 2, 3, 6], metavar="N",
+                   help="spring rows along a pad of finite length (default 1 2 3 6)")
+    p.add_argument("--rows-ref", type=_count, default=3,
+                   help="rows of the reference case of the h and width sweeps (default 3)")
+    p.add_argument("--n-supports", type=_count, default=41,
+                   help="discrete supports centred on the sensor span (default 41)")
+    p.add_argument("--decay", action="store_true",
+                   help="also the EN 15461 decay rates per band (periodic track; slow)")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/support-convergence"),
+                   metavar="DIR", help="output folder (default railfem-output/support-convergence)")
+
+
+def _support_run(args) -> int:
+    from . import jobs
+    from .support_convergence import sweeps
+
+    cases = sweeps(np.array(args.sizes) * 1e-3, args.width, args.rows, args.pad_lengths,
+                   rule=args.rule, rows_ref=args.rows_ref)
+    res = jobs.run_support_convergence(args.out, cases, preset=args.preset, decay=args.decay,
+                                       n_supports=args.n_supports, profile=args.profile)
+    sys.stdout.write(res["paths"]["txt"].read_text())
+    for v in res["paths"].values():
+        sys.stdout.write(f"wrote {v}\n")
+    return 0
+
+
+
 COMMANDS = {
     "mesh": (_mesh_args, _mesh_run, "mesh a rail profile and write a mesh-quality summary"),
     "dispersion": (_dispersion_args, _dispersion_run,
@@ -684,6 +728,9 @@ COMMANDS = {
                  "free-rail point and transfer mobilities (CSV, plot)"),
     "track": (_track_args, _track_run,
               "supported track of a Table 1 preset: mobilities, EN 15461 decay rates, plots"),
+    "support-convergence": (_support_args, _support_run,
+                            "rail-on-pad peak (and decay rates) vs section mesh, springs "
+                            "across the foot and rows along the pad"),
     "tdr": (_tdr_args, _tdr_run, "track decay rate from measured or simulated data"),
     "passby": (_passby_args, _passby_run,
                "train pass-by: rail vibration from roughness, band levels, time signal"),

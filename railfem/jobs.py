@@ -528,3 +528,20 @@ def _write_convergence(study, out: Path, suffix: str) -> dict:
     paths["study"] = study
     log.info("wrote %s and %s", paths["csv"], paths["png"])
     return paths
+
+
+def run_support_convergence(out_dir, cases: dict, *, preset: str = "site",
+                            decay: bool = False, n_supports: int = 41, profile: str = "60E1",
+                            progress=None) -> dict:
+    """Run :func:`railfem.support_convergence.support_study` and write peaks.csv,
+    peaks.txt (the table) and, with ``decay``, decay_rates.csv."""
+    from . import support_convergence as sc
+
+    out = Path(out_dir)
+    res = sc.support_study(cases, preset, decay=decay, n_supports=n_supports, profile=profile,
+                           progress=progress or progress_logger("support convergence"))
+    paths = {"csv": write_text_atomic(out / "peaks.csv", sc.peak_csv(res["peaks"])),
+             "txt": write_text_atomic(out / "peaks.txt", sc.peak_table(res["peaks"]) + "\n")}
+    if decay:
+        paths["decay_csv"] = write_text_atomic(out / "decay_rates.csv", sc.decay_csv(res["decay"]))
+    return {"paths": paths, **res}

@@ -41,7 +41,7 @@ import scipy.sparse as sp
 from .coupling import (DiscreteKernel, PeriodicKernel, couple_discrete, couple_periodic,
                        theta_mean, unique_separations)
 from .mobility import FamilyResponse, Location, _kernels, combine, residue_sum, wave_sum
-from .supports import SupportLayout, dynamic_stiffness, foot_spring_weights
+from .supports import SupportLayout, dynamic_stiffness
 from .waveguide import Waveguide
 from .waves import FamilyOperators, frozen_tail, join, waves_at
 
@@ -67,36 +67,19 @@ class FootSprings:
     y: np.ndarray
 
 
-def foot_springs(guide: Waveguide, n_f: int = DEFAULT_N_FOOT_SPRINGS) -> FootSprings:
-    """n_f springs at foot-underside nodes nearest to equal strips of the foot width,
-    weighted by tributary width (supports.foot_spring_weights), grouped in mirror pairs."""
-    under = guide.node_sets.get("foot_underside", np.array([], dtype=int))
-    if len(under) < 2:
-        raise ValueError(
-            f"the mesh has {len(under)} rail-foot underside node(s); supports need the foot "
-            "underside (the lowest straight edge of the profile): check the profile outline "
-            "and that the mesh was built by railfem.meshing")
-    if int(n_f) != n_f or n_f < 1:
-        raise ValueError(f"n_f = {n_f!r}: the number of foot springs must be an integer >= 1")
-    y = guide.nodes[under, 0]
-    width = y.max() - y.min()
-    targets = y.min() + (np.arange(n_f) + 0.5) / n_f * width
-    chosen = under[[int(np.argmin(np.abs(y - t))) for t in targets]]
-    if len(set(chosen.tolist())) < n_f:
-        raise ValueError(f"the foot underside has too few nodes for n_f = {n_f} springs "
-                         f"({len(under)} nodes): refine the mesh or use fewer springs")
-    yc = guide.nodes[chosen, 0]
-    w = foot_spring_weights(yc - (y.max() + y.min()) / 2, width)
-    pairs, weights, ys = [], [], []
-    for i in range(n_f // 2 + n_f % 2):
-        a, b = i, n_f - 1 - i
-        wv = np.zeros(guide.n_dofs)
-        wv[guide.dof(int(chosen[a]), "z")] += 0.5
-        wv[guide.dof(int(chosen[b]), "z")] += 0.5
-        pairs.append(Location(label=f"foot_spring_{i}", weights=wv))
-        weights.append(w[a] + (w[b] if b != a else 0.0))
-        ys.append(abs(yc[a]))
-    return FootSprings(pairs=tuple(pairs), weight=np.array(weights), y=np.array(ys))
+def foot_springs(guide: Waveguide, n_f: int = DEFAULT_N_FOOT_SPRINGS, *,
+                 rule: str = "nodes") -> FootSprings:
+    """n_f springs of a support across the rail-foot underside, grouped in mirror pairs
+    (railfem.footprints): ``rule="nodes"`` at the nodes nearest to equal strips, weighted by
+    tributary width (METHOD.md section 2, the published configuration); ``"midpoint"`` at
+    the strip centres through the P2 edge shape functions (the distributed bed).
+    A FootSprings passed as n_f is returned as it is, so the models take any footprint."""
+    from .footprints import width_points
+
+    if isinstance(n_f, FootSprings):
+        return n_f
+    wp = width_points(guide, n_f, rule)
+    return FootSprings(pairs=wp.pairs, weight=wp.share, y=wp.y)
 
 
 def _check_symmetric(guide: Waveguide, locs) -> None:

@@ -12,15 +12,26 @@ with c = 1 + i eta. Each lambda gives the pair +-k; the positive-going root (Im 
 no damping the one with positive group velocity) is kept. The left eigenvector of k_n is
 psi_n = T_a phi_n (T_a flips the sign of the axial DOFs), see METHOD.md section 1.
 
-Two strategies: ``"dense"`` returns all N waves (LAPACK eig of B^-1 A); ``"shift-invert"``
+Two strategies: ``"dense"`` returns all N waves (LAPACK eig of A^-1 B); ``"shift-invert"``
 returns the ``n_waves`` waves of smallest |k| by ARPACK on the sparse factorisation of the
 left-hand matrix - near-field waves with large |Im k| decay within millimetres and are
-filtered out by any load spread over a patch.
+filtered out by any load spread over a patch. An undamped rail (eta = 0) is solved in real
+arithmetic. ``frozen_tail`` supplies the dropped near-field waves once per sweep.
+
+Solver calls run with BLAS limited to RAILFEM_BLAS_THREADS threads (default 1, see
+``blas_threads``). Wave sets are cached in memory per (operators' content, omega, method,
+n_waves), bounded by RAILFEM_WAVE_CACHE_MB (default 256 MB; 0 disables it), so that
+repeated calls (a fitter changing support parameters) do not re-solve; ``clear_cache``
+empties it.
 """
 from __future__ import annotations
 
+import hashlib
 import logging
+import os
 import warnings
+from collections import OrderedDict
+from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -50,7 +61,12 @@ class Waves:
 
 
 class FamilyOperators:
-    """Reduced, loss-scaled matrices of one family, built once and reused per frequency."""
+    """Reduced, loss-scaled matrices of one family, built once and reused per frequency.
+
+    The frequency-dependent matrix Z(omega) = c K0' - omega^2 M (K0' is K0 with its
+    axial/in-plane block replaced by K1's, see the module docstring) is assembled by one
+    vector operation on a sparsity pattern fixed here: no sparse-format conversion per
+    frequency."""
 
     def __init__(self, guide: Waveguide, family: str):
         self.family = family
@@ -66,24 +82,39 @@ class FamilyOperators:
         sign = np.ones(len(self.order))
         sign[: self.na] = -1.0
         self.flip = sign  # T_a in the (a, p) ordering
-        self.B = self._lambda_matrix().tocsc()
+        self.B0 = _block_sum(self.na, (K2, "aa"), (K2, "pp"), (-K1, "pa"))  # real
+        self.B = (c * self.B0).tocsc()
+        k0 = _block_sum(self.na, (K0, "aa"), (K0, "pp"), (K1, "ap"))
+        self.pattern = (abs(k0) + abs(M)).tocsc()  # union sparsity, sorted indices
+        self.pattern.sort_indices()
+        self.k0_data = _on_pattern(self.pattern, k0)
+        self.m_data = _on_pattern(self.pattern, M)
         self.extra = None  # optional omega -> sparse stiffness (ordered DOFs), e.g. a foundation
+        self._key = None
 
-    def _lambda_matrix(self):
-        na = self.na
-        K2, K1 = self.K2.tolil(), self.K1
-        B = sp.lil_matrix(K2.shape, dtype=complex)
-        B[:na, :na] = K2[:na, :na]
-        B[na:, na:] = K2[na:, na:]
-        B[na:, :na] = -K1[na:, :na]
-        return self.c * B.tocsr()
-
-    def constant_matrix(self, omega: float):
-        na = self.na
-        Z = (self.c * self.K0 - omega**2 * self.M).tolil()
-        Z[:na, na:] = self.c * self.K1[:na, na:]
-        Z = Z.tocsc()
+    def constant_matrix(self, omega: float, c: complex | None = None):
+        """Z(omega) = c K0' - omega^2 M (+ extra(omega)), CSC; c defaults to 1 + i eta."""
+        c = self.c if c is None else c
+        if c.imag == 0:
+            c = c.real  # real arithmetic for an undamped rail
+        P = self.pattern
+        Z = sp.csc_matrix((c * self.k0_data - omega**2 * self.m_data, P.indices, P.indptr),
+                          shape=P.shape)
         return Z if self.extra is None else (Z + self.extra(omega)).tocsc()
+
+    @property
+    def key(self) -> bytes:
+        """Digest of everything the waves depend on (matrices, loss factor, DOF order)."""
+        if self._key is None:
+            h = hashlib.blake2b(digest_size=20)
+            h.update(self.family.encode())
+            h.update(np.array([self.c.real, self.c.imag]).tobytes())
+            for arr in (self.order, self.T.indices, self.T.indptr, self.T.data,
+                        self.pattern.indptr, self.pattern.indices, self.k0_data, self.m_data,
+                        self.B0.indptr, self.B0.indices, self.B0.data):
+                h.update(np.ascontiguousarray(arr).tobytes())
+            self._key = h.digest()
+        return self._key
 
     def dA(self, k: np.ndarray, phi: np.ndarray) -> np.ndarray:
         """psi_n^T A'(k_n) phi_n for every column, A' = c (2 k K2 + i K1)."""
@@ -103,82 +134,267 @@ class FamilyOperators:
         return out
 
 
-def _lambdas_dense(ops: FamilyOperators, omega: float):
+def _block_sum(na: int, *parts) -> sp.csc_matrix:
+    """Sum of blocks ("aa", "ap", "pa", "pp": axial = first na DOFs) of sparse matrices."""
+    out = None
+    for X, block in parts:
+        X = X.tocoo()
+        rows_a, cols_a = X.row < na, X.col < na
+        keep = {"aa": rows_a & cols_a, "ap": rows_a & ~cols_a, "pa": ~rows_a & cols_a,
+                "pp": ~rows_a & ~cols_a}[block]
+        part = sp.csc_matrix((X.data[keep], (X.row[keep], X.col[keep])), shape=X.shape)
+        out = part if out is None else out + part
+    return out.tocsc()
+
+
+def _on_pattern(P: sp.csc_matrix, X) -> np.ndarray:
+    """X's entries laid out on the sorted CSC pattern P (which must contain X's)."""
+    X = sp.csc_matrix(X)
+    X.sum_duplicates()
+    n = P.shape[0]
+
+    def keys(A):
+        return np.repeat(np.arange(A.shape[1], dtype=np.int64), np.diff(A.indptr)) * n + A.indices
+
+    kp, kx = keys(P), keys(X)
+    pos = np.searchsorted(kp, kx)
+    if np.any(pos >= len(kp)) or np.any(kp[np.minimum(pos, len(kp) - 1)] != kx):
+        raise ValueError("sparsity pattern does not contain the matrix")  # internal invariant
+    out = np.zeros(P.nnz, dtype=X.dtype)
+    out[pos] = X.data
+    return out
+
+
+# ----------------------------------------------------------------- BLAS threads and cache
+THREADS_VARIABLE = "RAILFEM_BLAS_THREADS"  # BLAS threads in solver calls; "none": leave as set
+CACHE_VARIABLE = "RAILFEM_WAVE_CACHE_MB"  # bound of the in-memory wave cache; 0 disables it
+DEFAULT_CACHE_MB = 256.0
+_controller = None
+_cache: OrderedDict = OrderedDict()
+
+
+@contextmanager
+def blas_threads():
+    """Limit BLAS threads inside a solver call to RAILFEM_BLAS_THREADS (default 1).
+
+    One thread is fastest for these problem sizes on a shared machine (threaded OpenBLAS
+    oversubscribed a loaded 2-core machine and ran the dense solves 10-50x slower); set
+    RAILFEM_BLAS_THREADS to a number to use more, or to "none" to leave BLAS alone."""
+    global _controller
+    value = os.environ.get(THREADS_VARIABLE, "1").strip().lower()
+    if value in ("none", ""):
+        yield
+        return
+    try:
+        n = int(value)
+        if n < 1:
+            raise ValueError
+    except ValueError:
+        raise ValueError(f"{THREADS_VARIABLE}={value!r}: use a number of threads >= 1 or "
+                         "'none'") from None
+    if _controller is None:
+        from threadpoolctl import ThreadpoolController
+
+        _controller = ThreadpoolController()
+    with _controller.limit(limits=n, user_api="blas"):
+        yield
+
+
+def _cache_limit() -> float:
+    value = os.environ.get(CACHE_VARIABLE, str(DEFAULT_CACHE_MB))
+    try:
+        mb = float(value)
+        if not mb >= 0:
+            raise ValueError
+    except ValueError:
+        raise ValueError(f"{CACHE_VARIABLE}={value!r}: use a size in MB >= 0 (0 disables the "
+                         "wave cache)") from None
+    return mb * 1e6
+
+
+def _nbytes(w: Waves) -> int:
+    return w.k.nbytes + w.phi.nbytes + w.denom.nbytes
+
+
+def clear_cache() -> None:
+    """Forget every cached wave solution (waves_at and frozen_tail results)."""
+    _cache.clear()
+
+
+def cache_info() -> dict:
+    """Number of cached wave sets and their size in bytes."""
+    return {"entries": len(_cache), "bytes": sum(_nbytes(w) for w in _cache.values()),
+            "limit_bytes": _cache_limit()}
+
+
+def _cached(ops: FamilyOperators, what: tuple, solve):
+    """solve() memoised per (operators' content, what) in a bounded LRU cache.
+
+    Operators with an ``extra`` stiffness (a callable, e.g. a foundation of given parameters)
+    are not cached: the callable's content cannot be keyed."""
+    limit = _cache_limit()
+    if limit <= 0 or ops.extra is not None:
+        return solve()
+    key = (ops.key, what)
+    hit = _cache.get(key)
+    if hit is not None:
+        _cache.move_to_end(key)
+        return hit
+    w = solve()
+    for arr in (w.k, w.phi, w.denom):
+        arr.flags.writeable = False  # shared between callers
+    size = _nbytes(w)
+    if size <= limit:
+        _cache[key] = w
+        total = sum(_nbytes(v) for v in _cache.values())
+        while total > limit:
+            total -= _nbytes(_cache.popitem(last=False)[1])
+    return w
+
+
+# ------------------------------------------------------------------------ eigensolvers
+def _lambdas_dense(ops: FamilyOperators, omega: float, c: complex, inverted: bool = True):
     """All N pairs (lambda = k^2, vector) of A x + lambda B x = 0, from the eigenvalues
     nu = 1/lambda of -A^-1 B: eig is accurate relative to the largest eigenvalue, which in this
     inverted form belongs to the waves of smallest |k| that carry the far field (in the form
     -B^-1 A the small k^2 of the bending and longitudinal waves lose accuracy at low
     frequency: 0.3 % error in the receptance at 30 Hz on 60E1 h = 20 mm, see
-    tests/test_mobility.py). A singular A (no damping, exactly at a cut-on) uses -B^-1 A."""
-    A = ops.constant_matrix(omega).toarray()
-    B = ops.B.toarray()
+    tests/test_mobility.py). A singular A (no damping, exactly at a cut-on) uses -B^-1 A.
+    ``inverted=False`` takes -B^-1 A directly, accurate for the waves of largest |k| (the
+    near-field tail). Real arithmetic when c and the matrices are real."""
+    def dense_B():
+        return (c * ops.B0).toarray() if c.imag else ops.B0.toarray()
+
+    if not inverted:
+        A = ops.constant_matrix(omega, c)
+        C = spl.splu(ops.B0.astype(A.dtype).tocsc()).solve(A.toarray())
+        C *= -1.0 / c if c.imag else -1.0
+        return sl.eig(C, check_finite=False, overwrite_a=True)
+
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", sl.LinAlgWarning)
-        lu, piv = sl.lu_factor(A, check_finite=False)
+        lu, piv = sl.lu_factor(ops.constant_matrix(omega, c).toarray(), overwrite_a=True,
+                               check_finite=False)
     if np.all(np.diag(lu) != 0):
-        nu, x = sl.eig(sl.lu_solve((lu, piv), -B, check_finite=False), check_finite=False,
-                       overwrite_a=True)
+        C = sl.lu_solve((lu, piv), dense_B(), check_finite=False, overwrite_b=True)
+        del lu  # frees N^2 before the eig
+        C *= -1.0
+        nu, x = sl.eig(C, check_finite=False, overwrite_a=True)
         if np.all(np.isfinite(nu)) and np.all(nu != 0):  # B is regular: K2 > 0
             return 1.0 / nu, x
-    C = sl.solve(-B, A, check_finite=False)
+    C = sl.solve(-dense_B(), ops.constant_matrix(omega, c).toarray(), check_finite=False)
     return sl.eig(C, check_finite=False, overwrite_a=True)
 
 
-def _lambdas_shift_invert(ops: FamilyOperators, omega: float, n: int):
-    n = min(n, ops.B.shape[0] - 2)
-    lu = spl.splu(ops.constant_matrix(omega))
-    op = spl.LinearOperator(ops.B.shape, dtype=complex, matvec=lambda x: lu.solve(-(ops.B @ x)))
-    nu, vec = spl.eigs(op, k=n, which="LM", tol=1e-10)
+def _lambdas_shift_invert(ops: FamilyOperators, omega: float, n: int, c: complex):
+    n = min(n, ops.B0.shape[0] - 2)
+    Z = ops.constant_matrix(omega, c)
+    lu = spl.splu(Z, permc_spec="MMD_AT_PLUS_A")  # fewer fill-ins than COLAMD here
+    B = ops.B0 if c.imag == 0 else c * ops.B0
+    dtype = np.result_type(Z.dtype, B.dtype)
+    op = spl.LinearOperator(B.shape, dtype=dtype, matvec=lambda x: lu.solve(-(B @ x)))
+    # a fixed start vector: ARPACK's own is drawn from a generator that carries over between
+    # calls, which would make a result depend (at round-off level) on what ran before
+    v0 = np.random.default_rng(0).standard_normal(B.shape[0]).astype(dtype)
+    nu, vec = spl.eigs(op, k=n, which="LM", tol=1e-10, v0=v0)
     return 1.0 / nu, vec
 
 
 def waves_at(ops: FamilyOperators, omega: float, *, method: str = "dense",
              n_waves: int = 60) -> Waves:
-    """Positive-going waves of one family at angular frequency omega (rad/s)."""
-    if method == "dense":
-        lam, x = _lambdas_dense(ops, omega)
-    elif method == "shift-invert":
-        try:
-            lam, x = _lambdas_shift_invert(ops, omega, n_waves)
-        except (spl.ArpackNoConvergence, RuntimeError) as exc:
-            log.warning("shift-invert wave solve failed at %.1f Hz (%s); using dense",
-                        omega / (2 * np.pi), exc)
-            lam, x = _lambdas_dense(ops, omega)
-    else:
+    """Positive-going waves of one family at angular frequency omega (rad/s).
+
+    Results are cached in memory per (operators' content, omega, method, n_waves); the
+    returned arrays are read-only."""
+    if method not in ("dense", "shift-invert"):
         raise ValueError(f"wave solver method must be 'dense' or 'shift-invert', got {method!r}")
-    k = np.sqrt(lam.astype(complex))
-    k = np.where(k.imag > 0, -k, k)
-    x = x.astype(complex)
-    x[: ops.na] *= 1j * k  # back-substitute u_a = i k w
-    undamped = np.abs(k.imag) <= 1e-6 * np.abs(k)  # eig round-off is ~1e-8
-    if undamped.any():
-        kr = k[undamped].real
-        cg = ops.group_velocity(omega, kr, x[:, undamped])
-        k[undamped] = np.where(cg >= 0, kr, -kr)
-        x[: ops.na, undamped] *= np.where(cg >= 0, 1.0, -1.0)  # u_a = i k w with k -> -k
-    idx = np.argsort(np.abs(k))
-    k, x = k[idx], x[:, idx]
-    x /= np.linalg.norm(x, axis=0)
-    return Waves(family=ops.family, omega=omega, k=k, phi=ops.to_reduced(x),
-                 denom=_denominators(ops, k, x))
+    what = ("waves", float(omega), method, int(n_waves) if method == "shift-invert" else None)
+    return _cached(ops, what, lambda: _solve_waves(ops, omega, method, n_waves, ops.c))
 
 
-def _denominators(ops, k, x_ordered):
-    return ops.dA(k, x_ordered)
+def _solve_waves(ops, omega, method, n_waves, c, keep=slice(None), inverted=True) -> Waves:
+    """The waves of A = c K(k) - omega^2 M, sorted by |k|, those of rank ``keep``.
+
+    Solved with c (1 for a real-arithmetic solve), returned for the operators' own loss
+    factor: when c differs from ops.c, each wavenumber is moved to first order to the
+    damped problem, which is the undamped one at omega^2 / (1 + i eta) (dk = d(omega^2)
+    psi^T M phi / psi^T A'(k) phi), before the ranking; otherwise the members of an undamped
+    pair (k, -conj k) of equal |k| would be ranked by round-off, not as the damped waves."""
+    with blas_threads():
+        if method == "dense":
+            lam, x = _lambdas_dense(ops, omega, c, inverted)
+        else:
+            try:
+                lam, x = _lambdas_shift_invert(ops, omega, n_waves, c)
+            except (spl.ArpackNoConvergence, RuntimeError) as exc:
+                log.warning("shift-invert wave solve failed at %.1f Hz (%s); using dense",
+                            omega / (2 * np.pi), exc)
+                lam, x = _lambdas_dense(ops, omega, c)
+        k = np.sqrt(lam.astype(complex))
+        k = np.where(k.imag > 0, -k, k)
+        x = np.asarray(x, dtype=complex)
+        x[: ops.na] *= 1j * k  # back-substitute u_a = i k w
+        undamped = np.abs(k.imag) <= 1e-6 * np.abs(k)  # eig round-off is ~1e-8
+        if undamped.any():
+            kr = k[undamped].real
+            forward = ops.group_velocity(omega, kr, x[:, undamped]) >= 0
+            k[undamped] = np.where(forward, kr, -kr)
+            x[: ops.na, undamped] *= np.where(forward, 1.0, -1.0)  # u_a = i k w, k -> -k
+        for j in _chunks(len(k)):  # column blocks: whole-matrix temporaries cost N^2 each
+            x[:, j] /= np.linalg.norm(x[:, j], axis=0)
+        if c != ops.c:
+            k = k + _loss_shift(ops, omega, c, k, x)
+        idx = np.argsort(np.abs(k))[keep]
+        k = k[idx]
+        denom = np.empty(len(idx), dtype=complex)
+        for j in _chunks(len(idx)):
+            denom[j] = ops.dA(k[j], x[:, idx[j]])
+        phi = x[np.ix_(np.argsort(ops.order), idx)]  # sorted columns, rows as reduced DOFs
+        return Waves(family=ops.family, omega=omega, k=k, phi=phi, denom=denom)
 
 
-def frozen_tail(ops: FamilyOperators, omega0: float, n_waves: int) -> Waves:
+def _chunks(n: int, size: int = 256):
+    return [slice(j, min(j + size, n)) for j in range(0, n, size)]
+
+
+def _loss_shift(ops, omega, c, k, x) -> np.ndarray:
+    """First-order change of k from the problem solved with c to the one with ops.c:
+    c P(k) - omega^2 M = c [P(k) - (omega^2 / c) M], and dk/ds = psi^T M phi / psi^T P' phi
+    for P(k) - s M (psi = T_a phi; ops.dA is c psi^T P' phi)."""
+    ds = omega**2 * (1 / ops.c - 1 / c)
+    out = np.empty_like(k)
+    for j in _chunks(len(k)):
+        xs = x[:, j]
+        out[j] = ds * ops.c * np.einsum("ij,ij->j", ops.flip[:, None] * xs, ops.M @ xs) \
+            / ops.dA(k[j], xs)
+    return out
+
+
+def frozen_tail(ops: FamilyOperators, omega0: float, n_waves: int, *,
+                damped: bool = False) -> Waves:
     """The waves beyond the ``n_waves`` smallest |k| at omega0, from the full (dense) set.
 
     They are near-field waves with |Im k| of hundreds of rad/m whose wavenumbers and shapes
     hardly change with frequency (their decay length is far below a bending wavelength), so
     computed once they stand for the waves a shift-invert solve drops at every other
     frequency: a quasi-static correction of point and near-point responses.
+
+    The eigenproblem is solved in the direct form -B^-1 A, accurate for the largest |k|
+    (the inverted form of ``waves_at(method="dense")`` carries round-off of up to 1e-4 on
+    them, 1e-3 in point receptances), and by default without the rail's loss factor, in real
+    arithmetic: the damped problem at omega0 is the undamped one at omega0^2 / (1 + i eta),
+    so each wavenumber is moved there to first order and the denominators are those of the
+    damped operator. Against the tail solved with the loss factor (``damped=True``, complex
+    arithmetic) point receptances differ by < 1e-9 (tests/test_waves_speed.py); the
+    real solve takes a third of the time and a quarter of the memory
+    (benchmarks/bench_waveguide.py). Cached like waves_at.
     """
-    w = waves_at(ops, omega0, method="dense")
-    keep = slice(n_waves, None)
-    return Waves(family=w.family, omega=omega0, k=w.k[keep], phi=w.phi[:, keep],
-                 denom=w.denom[keep])
+    def solve():
+        c = ops.c if damped else 1.0 + 0j
+        return _solve_waves(ops, omega0, "dense", 0, c, keep=slice(n_waves, None),
+                            inverted=False)
+
+    return _cached(ops, ("tail", float(omega0), int(n_waves), bool(damped)), solve)
 
 
 def join(*waves: Waves) -> Waves:
@@ -200,6 +416,7 @@ class Dispersion:
     label: np.ndarray
 
 
+@blas_threads()
 def solve(guide: Waveguide, frequency, *, families=None, method: str = "shift-invert",
           n_waves: int = 40, progress=None) -> Dispersion:
     """k(omega) of the requested families (default: all of the guide's) at each frequency
@@ -235,13 +452,12 @@ def real_k_mode_matrices(guide: Waveguide, family: str, k: float):
     """Undamped real symmetric K(k) = k^2 K2 + k K1s + K0 and M for real k, from scaling
     the axial DOFs by i (METHOD.md section 1)."""
     ops = FamilyOperators(guide, family)
-    na = ops.na
-    K1s = ops.K1.tolil()
-    K1s[na:, :na] = -K1s[na:, :na]
-    K = (k * k * ops.K2 + k * K1s.tocsr() + ops.K0).tocsc()
+    K1s = _block_sum(ops.na, (ops.K1, "ap"), (-ops.K1, "pa"))
+    K = (k * k * ops.K2 + k * K1s + ops.K0).tocsc()
     return K, ops.M.tocsc(), ops
 
 
+@blas_threads()
 def omega_of_k(guide: Waveguide, k, *, n_modes: int = 10, families=None):
     """Undamped natural frequencies (Hz) of each family at each real wavenumber k (rad/m).
 
@@ -266,6 +482,7 @@ def omega_of_k(guide: Waveguide, k, *, n_modes: int = 10, families=None):
     return out
 
 
+@blas_threads()
 def cut_on_frequencies(guide: Waveguide, n: int = 6, family: str | None = None) -> np.ndarray:
     """Cut-on frequencies (Hz) of cross-section modes: the non-zero eigenfrequencies at k = 0.
 
