@@ -537,7 +537,7 @@ def run_support_convergence(out_dir, cases: dict, *, preset: str = "site",
     peaks.txt (the table) and, with ``decay``, decay_rates.csv."""
     from . import support_convergence as sc
 
-    out = Path(out_dir)
+    out = prepare_output_dir(out_dir, "support-convergence")
     res = sc.support_study(cases, preset, decay=decay, n_supports=n_supports, profile=profile,
                            progress=progress or progress_logger("support convergence"))
     paths = {"csv": write_text_atomic(out / "peaks.csv", sc.peak_csv(res["peaks"])),
