@@ -278,12 +278,19 @@ def _track_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--spacing", type=_positive, default=None, metavar="MM",
                    help="sleeper spacing, mm (Table 1: 600)")
     g.add_argument("--pad-length", type=_non_negative, default=None, metavar="MM",
-                   help="pad length along the rail, mm; 0 = point supports (default)")
-    g.add_argument("--n-rows", type=_count, default=None, help="spring rows per pad")
+                   help="pad length along the rail, mm (default 150 on discrete and "
+                        "periodic models; 0 = point supports, the published configuration)")
+    g.add_argument("--n-rows", type=_count, default=None,
+                   help="spring rows along each pad (default 3)")
     g.add_argument("--n-supports", type=_count, default=None,
                    help="supports of the discrete models (default 131)")
     g.add_argument("--n-foot-springs", type=_count, default=None,
-                   help="springs across the rail foot (default 8)")
+                   help="springs across the rail foot per row (default 4)")
+    g.add_argument("--foot-rule", choices=("midpoint", "nodes"), default=None,
+                   help="springs across the foot: midpoint = a distributed bed through the "
+                        "element shape functions (default, converges with the mesh); nodes = "
+                        "point springs at foot nodes (the published configuration, with "
+                        "--n-foot-springs 8 --pad-length 0)")
     j = p.add_argument_group("job")
     j.add_argument("--f-low", type=_positive, default=None, metavar="HZ",
                    help="lowest band (Hz, default 50)")
@@ -339,9 +346,11 @@ def track_spec_from_args(args):
         top["support"] = replace(spec.support, **sup)
     if rail:
         top["rail"] = replace(spec.rail, **rail)
-    if args.n_foot_springs is not None:
-        top["numerics"] = replace(spec.numerics, n_foot_springs=args.n_foot_springs)
-    spec = replace(spec, **top)
+    num = {k: x for k, x in (("n_foot_springs", args.n_foot_springs),
+                             ("foot_rule", args.foot_rule)) if x is not None}
+    if num:
+        top["numerics"] = replace(spec.numerics, **num)
+    spec = spec.replace(**top)
     jobs = {k: x for k, x in (("f_low", args.f_low), ("f_high", args.f_high)) if x is not None}
     return spec, replace(job, **jobs)
 

@@ -101,14 +101,15 @@ def rail_mesh(rail: RailSpec):
 
 
 @lru_cache(maxsize=4)
-def wfe_rail(rail: RailSpec, patch_width: float, n_foot_springs: int) -> Rail:
+def wfe_rail(rail: RailSpec, patch_width: float, n_foot_springs: int,
+             foot_rule: str = "midpoint") -> Rail:
     """The WFE rail of ``rail`` (memoised: a fitter's repeated calls reuse it)."""
     mesh = rail_mesh(rail)
     guide = waveguide.assemble(mesh, rail.material())
     outputs = {"head": mobility.point(guide, "head_top", label="head"),
                "foot": mobility.point(guide, "foot_sensor", label="foot")}
     load = mobility.head_patch(guide, patch_width)
-    springs = track.foot_springs(guide, n_foot_springs)
+    springs = track.foot_springs(guide, n_foot_springs, rule=foot_rule)
     m = rail.material()
     key = (mesh.nodes, mesh.elements, (m.E, m.nu, m.rho, m.loss_factor), load.weights,
            tuple(o.weights for o in outputs.values()), tuple(p.weights for p in springs.pairs),
@@ -184,7 +185,8 @@ def receptance(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE
         a = beams.continuous_track_receptance(beam_section(spec.rail), spec.support,
                                               spec.spacing, 2 * np.pi * f, sep.ravel())
         return np.repeat(a.reshape(len(f), 1, *sep.shape), len(outputs), axis=1)
-    rail = wfe_rail(spec.rail, spec.numerics.patch_width, spec.numerics.n_foot_springs)
+    rail = wfe_rail(spec.rail, spec.numerics.patch_width, spec.numerics.n_foot_springs,
+                    spec.numerics.foot_rule)
     u, inv = np.unique(np.round(sep, 12), return_inverse=True)
     r = track.continuous_receptance(rail.guide, spec.support, spec.spacing, f, load=rail.load,
                                     outputs=[rail.outputs[o] for o in outputs], x=u,
@@ -242,7 +244,8 @@ def _key(kind, spec, *parts):
 
 
 def _wfe_discrete(spec, f, fx, rx, outputs, store, progress, couple=True):
-    rail = wfe_rail(spec.rail, spec.numerics.patch_width, spec.numerics.n_foot_springs)
+    rail = wfe_rail(spec.rail, spec.numerics.patch_width, spec.numerics.n_foot_springs,
+                    spec.numerics.foot_rule)
     lay = spec.layout()
     xs = lay.springs().x
     outs = [rail.outputs[o] for o in outputs]
@@ -283,7 +286,8 @@ def _beam_discrete(spec, f, fx, rx, outputs, store, couple=True):
 def _wfe_periodic(spec, f, fx, rx, outputs, store, progress):
     from .supports import uniform_layout
 
-    rail = wfe_rail(spec.rail, spec.numerics.patch_width, spec.numerics.n_foot_springs)
+    rail = wfe_rail(spec.rail, spec.numerics.patch_width, spec.numerics.n_foot_springs,
+                    spec.numerics.foot_rule)
     cell = uniform_layout(spec.support, spec.spacing, n=1, pad_length=spec.pad_length,
                           n_rows=spec.n_rows)
     o = cell.springs().x

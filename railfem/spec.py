@@ -14,6 +14,7 @@ deviate), ``wfe-periodic`` (infinitely many identical supports, Floquet), ``wfe-
 """
 from __future__ import annotations
 
+import logging
 from dataclasses import asdict, dataclass, field, fields, replace
 
 from . import validators as v
@@ -25,6 +26,13 @@ MODELS = ("wfe-discrete", "wfe-periodic", "wfe-continuous", "timoshenko-discrete
           "timoshenko-continuous")
 BEAM_CONSTANTS = ("mesh", "catalogue")
 H_RANGE = (0.5e-3, 0.1)  # m: finer hangs the eigen-solves, coarser cannot carry the section
+FOOT_RULES = ("midpoint", "nodes")  # railfem.footprints.RULES
+# The converged default support footprint (railfem support-convergence, issue 8): a pad
+# of this length in these rows, 4 midpoint springs across the foot (Numerics).
+DEFAULT_PAD_LENGTH = 0.15  # m
+DEFAULT_PAD_ROWS = 3
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -93,13 +101,19 @@ class SupportDeviation:
 class Numerics:
     """Discretisation choices (defaults are the converged ones of the tests).
 
-    n_foot_springs: springs across the rail foot per support row (-). n_waves: waves per
+    n_foot_springs: springs across the rail foot per support row (-). foot_rule: how they
+    sit: 'midpoint' (a distributed bed: springs at the centres of equal strips of the foot
+    width, reading and loading the FE field through the P2 edge shape functions; converges
+    to the consistent bed as n grows) or 'nodes' (point springs at foot nodes weighted by
+    tributary width: the published configuration, which does not converge with the mesh;
+    railfem.footprints, docs/model.md). n_waves: waves per
     family kept by the shift-invert solver (-). tail: add the frozen near-field tail.
     n_theta: Floquet angles of the periodic model (-). load_length: length along the rail
     over which a force is spread (m). patch_width: width of the head load patch (m).
     """
 
-    n_foot_springs: int = 8
+    n_foot_springs: int = 4
+    foot_rule: str = "midpoint"
     n_waves: int = 40
     tail: bool = True
     n_theta: int = 512
@@ -113,6 +127,7 @@ class Numerics:
                 raise ValueError(f"Numerics.{name} = {val!r}: give an integer >= {low}")
         if not isinstance(self.tail, bool):
             raise ValueError(f"Numerics.tail = {self.tail!r}: give true or false")
+        v.one_of("Numerics.foot_rule", self.foot_rule, FOOT_RULES)
         v.non_negative("Numerics.load_length", self.load_length, "m", "e.g. 0.02")
         v.positive("Numerics.patch_width", self.patch_width, "m", "e.g. 0.02")
 
@@ -206,15 +221,33 @@ class TrackSpec:
             changes["support"] = replace(changes.get("support", self.support), **sup)
         if "eta_r" in changes:
             changes["rail"] = replace(changes.get("rail", self.rail), eta=changes.pop("eta_r"))
+        if (str(changes.get("model", "")).endswith("continuous") and "pad_length" not in changes
+                and self.pad_length > 0):
+            # a continuous foundation spreads every support along the rail: a pad length
+            # means nothing there, so switching model drops it (state it in a log line)
+            log.info("TrackSpec.replace: model %s has no pad geometry; pad_length %g m and "
+                     "n_rows %d dropped", changes["model"], self.pad_length, self.n_rows)
+            changes.update(pad_length=0.0, n_rows=1)
         return replace(self, **changes)
 
 
 def preset(name: str, **changes) -> TrackSpec:
     """The Table 1 track ``name`` (railfem.supports.PRESETS) as a spec, with ``changes``
-    applied as in TrackSpec.replace (e.g. model='wfe-periodic', kp=300e6)."""
+    applied as in TrackSpec.replace (e.g. model='wfe-periodic', kp=300e6).
+
+    Discrete and periodic models get a pad of DEFAULT_PAD_LENGTH (0.15 m) in
+    DEFAULT_PAD_ROWS (3) rows unless ``pad_length`` is given: the rail-on-pad resonance of a
+    point-like support does not converge with the section mesh (a line load on a solid), a
+    pad of real length does (docs/model.md, railfem support-convergence). pad_length=0
+    gives the published point supports."""
     tp = table1_preset(name)
+    model = changes.get("model", "wfe-discrete")
+    pad = {} if model.endswith("continuous") else {"pad_length": DEFAULT_PAD_LENGTH,
+                                                    "n_rows": DEFAULT_PAD_ROWS}
+    if "pad_length" in changes:
+        pad = {}
     spec = TrackSpec(name=tp.name, support=tp.support, spacing=tp.spacing,
-                     rail=RailSpec(eta=tp.eta_r))
+                     rail=RailSpec(eta=tp.eta_r), **pad)
     return spec.replace(**changes) if changes else spec
 
 
@@ -237,7 +270,7 @@ SCHEMA = {
               "n_supports": "int"},
     "rail": {"profile": "str", "h": "length", "mesh_file": "str", "E": "pressure",
              "nu": "number", "rho": "density", "eta": "number", "beam_constants": "str"},
-    "numerics": {"n_foot_springs": "int", "n_waves": "int", "tail": "bool",
+    "numerics": {"n_foot_springs": "int", "foot_rule": "str", "n_waves": "int", "tail": "bool",
                  "n_theta": "int", "load_length": "length", "patch_width": "length"},
     "deviation": {"index": "int", "kp": "number", "eta_p": "number", "ms": "number",
                   "kb": "number", "eta_b": "number"},
@@ -321,7 +354,7 @@ def spec_from_dict(d: dict, base: TrackSpec | None = None) -> TrackSpec:
             _named(f"deviations[{j}]", lambda t=t, j=j: SupportDeviation(
                 **_section(f"deviations[{j}]", t, SCHEMA["deviation"])))
             for j, t in enumerate(devs))
-    return _named("track", lambda: replace(spec, **changes))
+    return _named("track", lambda: spec.replace(**changes))
 
 
 def _named(section: str, build):

@@ -196,5 +196,6 @@ def test_track_command_writes_readable_outputs(tmp_path):
     assert decay.shape == (4, 5) and np.all(decay[:, 1] > 0)
     run = json.loads((out / "run.json").read_text())
     assert run["name"] == "site" and set(run["files"]) >= {"transfer_csv", "decay_png"}
-    assert cli.main(["-q", "track", "--preset", "site", "--n-rows", "3", "--out",
-                     str(tmp_path / "bad")]) == 2  # rows need a pad length
+    assert cli.main(["-q", "track", "--preset", "site", "--pad-length", "0", "--n-rows", "3",
+                     "--out", str(tmp_path / "bad")]) == 2  # rows need a pad length
+    assert not (tmp_path / "bad").exists()  # refused before any computing
