@@ -221,6 +221,8 @@ class TrackSpec:
             changes["support"] = replace(changes.get("support", self.support), **sup)
         if "eta_r" in changes:
             changes["rail"] = replace(changes.get("rail", self.rail), eta=changes.pop("eta_r"))
+        if changes.get("pad_length", None) == 0 and "n_rows" not in changes:
+            changes["n_rows"] = 1  # point supports have one row
         if (str(changes.get("model", "")).endswith("continuous") and "pad_length" not in changes
                 and self.pad_length > 0):
             # a continuous foundation spreads every support along the rail: a pad length

@@ -226,7 +226,7 @@ def test_track_bad_options_fail_before_computing(tmp_path, capsys, monkeypatch, 
 def test_timoshenko_discrete_uses_the_pad_length(tmp_path):
     """Issue 10: the beam model spread its supports over the pad length instead of ignoring
     it; a 150 mm pad changes the point mobility above the rail-on-pad resonance."""
-    _, point = _track(tmp_path, "point", *TRACK_FAST)
+    _, point = _track(tmp_path, "point", *TRACK_FAST, "--pad-length", "0")
     _, pad = _track(tmp_path, "pad", *TRACK_FAST, "--pad-length", "150")
     from railfem.frfio import read_frf_csv
 
