@@ -130,6 +130,36 @@ def resonance_marks(frequency, point_mobility, spec: TrackSpec, rail_mass: float
     return {k: v for k, v in marks.items() if np.isfinite(v)}
 
 
+#: points per 1/9-octave step added around each resonance peak of the point mobility
+REFINE_POINTS = 6
+
+
+def refined_point_mobility(spec: TrackSpec, f, point, marks: dict, hammer_x0: float,
+                           sensor_x: float, cache=None):
+    """The point mobility on the 1/9-octave grid ``f`` with a 1/54-octave grid added around
+    the rail-on-pad and pinned-pinned peaks (one 1/9-octave step either side), so the plot
+    resolves them: (frequency, values (nf', 2 outputs)). One extra model call for a single
+    force-response pair; its near-field tail is taken at its own lowest frequency, which
+    moves point values by ~1e-4 (waves.frozen_tail), far below what a plot shows."""
+    step = 10 ** (1 / 30)
+    extra = []
+    for name in ("rail on pad", "pinned-pinned"):
+        fc = marks.get(name)
+        if fc is None or not f[0] < fc < f[-1]:
+            continue
+        g = fc * step ** np.linspace(-1, 1, 2 * REFINE_POINTS + 1)
+        extra.append(g[(g > f[0]) & (g < f[-1])])
+    if not extra:
+        return f, point
+    fe = np.unique(np.concatenate(extra))
+    fe = fe[np.min(np.abs(np.log(fe[:, None] / f[None, :])), axis=1) > 1e-6]
+    a = models.receptance(spec, fe, [hammer_x0], [sensor_x], cache=cache)[:, :, 0, 0]
+    fa = np.concatenate([f, fe])
+    ya = np.concatenate([point, 1j * 2 * np.pi * fe[:, None] * a])
+    o = np.argsort(fa)
+    return fa[o], ya[o]
+
+
 def _cut_ons(spec: TrackSpec, f) -> dict:
     """Free-rail cut-ons of the waves a vertical load excites, inside the computed range
     (the decay-rate plot names them: the decay rate spikes just above each)."""
@@ -168,9 +198,11 @@ def run_track(spec: TrackSpec, out_dir, *, job: JobSettings | None = None, cache
     bs = models.beam_section(spec.rail)
     rail_mass, f_pp = bs.mass_per_length, beams.pinned_pinned_frequency(bs, d)
     marks = resonance_marks(f, transfer[:, 0, 0], spec, rail_mass, f_pp)
+    point = refined_point_mobility(spec, f, transfer[:, :, 0], marks, hammer[0], xs, cache)
+    marks = resonance_marks(point[0], point[1][:, 0], spec, rail_mass, f_pp)
     paths = _write_outputs(out, spec, f, pos, hammer, xs, transfer,
                            Y[:, :, 1:, len(pos):], span_fx, along_x, job.along_frequencies,
-                           marks, _cut_ons(spec, f))
+                           marks, _cut_ons(spec, f), point)
     mesh = models.rail_mesh(spec.rail)
     summary = {
         "command": "track", "railfem_version": __version__,
@@ -180,9 +212,10 @@ def run_track(spec: TrackSpec, out_dir, *, job: JobSettings | None = None, cache
         "sensor_x_m": xs, "point_offset_m": POINT_OFFSET,
         "hammer_positions_m": pos.tolist(),
         "frequency_hz": f.tolist(),
-        "rail_pad_peak_hz": {o: rail_pad_peak(f, transfer[:, j, 0], spec, rail_mass, f_pp)
+        "rail_pad_peak_hz": {o: rail_pad_peak(point[0], point[1][:, j], spec, rail_mass, f_pp)
                              for j, o in enumerate(OUTPUTS)},
         "resonances_hz": marks,
+        "point_mobility_refined_hz": [float(x) for x in np.setdiff1d(point[0], f)],
         "runtime_s": time.perf_counter() - t0,
         "files": {k: str(v) for k, v in paths.items()},
         "config": {"spec": spec_to_dict(spec),
@@ -197,7 +230,7 @@ def run_track(spec: TrackSpec, out_dir, *, job: JobSettings | None = None, cache
 
 
 def _write_outputs(out, spec, f, pos, hammer_x, xs, transfer, along, span_fx, along_x,
-                   along_frequencies, marks, cut_on) -> dict:
+                   along_frequencies, marks, cut_on, point) -> dict:
     from . import plotting
     from .frf import FRF
     from .frfio import write_frf_csv
@@ -227,7 +260,7 @@ def _write_outputs(out, spec, f, pos, hammer_x, xs, transfer, along, span_fx, al
     paths["along_csv"] = write_text_atomic(out / "along_rail.csv", "\n".join(lines) + "\n")
 
     title = f"{spec.name} track, {spec.model}: vertical hammer, vertical response"
-    ax_mag, _ = plotting.plot_point_mobility(f, transfer[:, :, 0],
+    ax_mag, _ = plotting.plot_point_mobility(point[0], point[1],
                                              [f"point, {o} sensor" for o in OUTPUTS],
                                              marks=marks)
     ax_mag.set_title(title, fontsize="medium")
