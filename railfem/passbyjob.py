@@ -205,9 +205,12 @@ def run_passby(out_dir, *, tables: P.RailTables | None = None, cache=None,
         truth["roughness"] = {"name": spec.name, "wavelength_m": spec.wavelength.tolist(),
                               "level_db_re_1um": spec.level.tolist()}
         truth["track"] = {"preset": tp.name, "model": tables.description}
-        rec_paths = signals.write_passby_recording(
-            out / "passby", sig, truth, spacing=tp.spacing, location=opts["output"],
-            speed_known=opts["speed_known"], data_format=opts["data_format"])
+        from .io.recording import write_recording
+
+        rec = signals.passby_recording(sig, truth, spacing=tp.spacing, location=opts["output"],
+                                       speed_known=opts["speed_known"])
+        rec_paths = write_recording(out / "passby", rec, data_format=opts["data_format"],
+                                    truth=truth)
         paths.update({f"recording_{k}": v for k, v in rec_paths.items()})
     summary["runtime_s"]["total"] = time.perf_counter() - t0
     summary["files"] = {k: str(v) for k, v in paths.items()}

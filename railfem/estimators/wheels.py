@@ -35,7 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .recording import Recording
+from railfem.recording import Recording
 
 __all__ = ["WheelPassage", "detect_wheel_times", "train_speed", "wheel_passage"]
 
@@ -207,7 +207,7 @@ def wheel_passage(recording: Recording, *, speed: float | None = None,
     speed = recording.speed if speed is None else speed
     axle_spacing = recording.axle_spacing if axle_spacing is None else axle_spacing
     axle_positions = recording.axle_positions if axle_positions is None else axle_positions
-    times = detect_wheel_times(recording.samples, recording.fs, quantity=recording.quantity,
+    times = detect_wheel_times(recording.trace, recording.fs, quantity=recording.channel.quantity,
                                speed=speed, **detect_options)
     if times.size < 2:
         raise ValueError(
