@@ -53,7 +53,8 @@ from railfem.standards.iec61260 import ThirdOctaveBands, band_average
 
 log = logging.getLogger(__name__)
 
-__all__ = ["RoughnessEstimate", "ATerms", "full_method", "simplified_method",
+__all__ = ["RoughnessEstimate", "ATerms", "full_method", "simplified_method", "ideal_level",
+           "band_leakage",
            "a_terms_model", "a_terms_default", "effective_wheel_count", "combine",
            "wavelength_bands", "DB_PER_NEPER", "A1_DEFAULT_MAX_HZ"]
 
@@ -90,6 +91,26 @@ class ATerms:
     a1: np.ndarray
     a2: np.ndarray
     source: str
+
+
+def ideal_level(result: P.PassbyResult, train: TrainLayout, speed: float,
+                name: str = "simulated") -> PassbyLevel:
+    """The pass-by level a perfect measurement would give: the simulated band velocity
+    mean square over the train positions from the first to the last wheel over the sensor
+    (ideal bands, no filters, no noise), for studies of the methods' own errors."""
+    from railfem.estimators.wheels import WheelPassage
+
+    x_s = result.settings["sensor_x_m"]
+    sel = (result.position >= x_s - 1e-9) & (result.position <= x_s + train.length + 1e-9)
+    if sel.sum() < 2:
+        raise ValueError("the simulation does not cover the train passage: simulate with "
+                         "before >= 0 and after >= 0")
+    offsets = np.asarray(train.offsets, dtype=float) - train.offsets[0]
+    wheels = WheelPassage(times=offsets / speed, speed=float(speed), speed_source="given",
+                          speed_scatter=0.0, positions=offsets)
+    return PassbyLevel(name=name, bands=result.bands, quantity="velocity",
+                       mean_square=np.mean(result.band_velocity[:, sel] ** 2, axis=1),
+                       wheels=wheels, window=(0.0, float(offsets[-1] / speed)), fs=None)
 
 
 def wavelength_bands(lam_min: float, lam_max: float) -> np.ndarray:
@@ -211,20 +232,22 @@ def a_terms_model(tables: P.RailTables, bands: ThirdOctaveBands, *, wheel_recept
     return ATerms(bands=bands, a1=a1, a2=a2, source=f"model ({tables.description})")
 
 
-def a_terms_default(spec, bands: ThirdOctaveBands, frequency, *, wheel=None,
+def a_terms_default(spec, bands: ThirdOctaveBands, frequency, *, wheel_receptance=None,
                     contact: contact_mod.HertzContact, cache=None) -> ATerms:
     """The original method's A1, A2: A1 = 0 dB (held above 4 kHz, where it no longer
     applies: a warning), A2 from the continuously supported Timoshenko track of ``spec``
-    (railfem.spec.TrackSpec) with ``wheel`` (default: railfem.wheels.flexible_wheel())."""
+    (railfem.spec.TrackSpec) with a flexible wheel: ``wheel_receptance`` (nf,) on
+    ``frequency``, default railfem.wheels.flexible_wheel() (the 920 mm wheel)."""
     from railfem import wheels as W
     from railfem.models import receptance
 
     f = np.asarray(frequency, dtype=float)
-    wheel = wheel if wheel is not None else W.flexible_wheel(f_max=float(f.max()))
+    aw = (W.flexible_wheel(f_max=float(f.max())).receptance(f) if wheel_receptance is None
+          else np.asarray(wheel_receptance))
     cont = spec.replace(model="timoshenko-continuous", pad_length=0.0, n_rows=1,
                         deviations=())
     a_rh = receptance(cont, f, [0.0], [0.0], outputs=("head",), cache=cache)[:, 0, 0, 0]
-    tot = a_rh + wheel.receptance(f) + contact_mod.contact_receptance(contact, f)
+    tot = a_rh + aw + contact_mod.contact_receptance(contact, f)
     a2 = 20 * np.log10(band_average(f, a_rh / tot, bands))
     if bands.centre[-1] > A1_DEFAULT_MAX_HZ * 10 ** 0.05:
         log.warning("default A1 = 0 dB is stated up to 4 kHz; used up to %.0f Hz",
