@@ -146,6 +146,11 @@ def run_roughness(recordings, out_dir, *, track: str, method: str = "full",
     if method == "simplified" and not tdr:
         raise ValueError("the simplified method needs a decay rate: --tdr energy, slope, "
                          "model, hammer:DATA or a decay-rate table file")
+    if tdr is not None and tdr not in ("energy", "slope", "model"):
+        where = Path(tdr[len("hammer:"):] if tdr.startswith("hammer:") else tdr)
+        if not where.exists():
+            raise ValueError(f"--tdr {tdr!r}: give energy, slope, model, hammer:DATA (an "
+                             "existing dataset) or an existing decay-rate table file")
     if a_terms not in A_TERMS:
         raise ValueError(f"--a-terms {a_terms!r}: choose one of {', '.join(A_TERMS)}")
     if contact_filter not in C.FILTERS:

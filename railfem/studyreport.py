@@ -201,6 +201,17 @@ def write_study_outputs(out: Path, results, cfg) -> dict:
             cols[f"simpl., {key}"] = v["simplified_model_hammer"] - r["true_level"]
         md += _md_table(f"## Sensitivity ({r['track']} track): estimate - truth (dB), "
                         "track model off by 25 %", np.asarray(r["wavelength_m"]) * 100, cols)
+        if "tdr_causes" in r:
+            md += [f"## Causes of the TDR estimators' errors ({r['track']} track): estimate "
+                   "(dB/m), EN 15461 truth and far field beside", "",
+                   "| band (Hz) | hammer | far field | " + " | ".join(
+                       f"{m}, {k}" for k in r["tdr_causes"] for m in ("energy", "slope"))
+                   + " |", "|---|---|---|" + "---|" * (2 * len(r["tdr_causes"]))]
+            for i, b in enumerate(r["bands_hz"]):
+                md.append(f"| {b:g} | {_f(r['hammer'][i])} | {_f(r['far'][i])} | " + " | ".join(
+                    _f(v[m][i]) or v[m + '_status'][i] for v in r["tdr_causes"].values()
+                    for m in ("energy", "slope")) + " |")
+            md.append("")
         md += _md_table(f"## Causes of the simplified method's error ({r['track']} track, "
                         "noise-free band values): estimate - truth (dB)",
                         np.asarray(r["wavelength_m"]) * 100, r["causes"])

@@ -27,9 +27,9 @@ HZ = contact.hertz()
 WHEEL = wheels.RigidWheel(mass=600.0)
 TRAIN = from_cars(2)  # 8 wheels over 36.6 m
 # the recordings hold band content from 178 Hz up, strong enough to ring through the
-# wheel detector's default 100 Hz low-pass at 50-60 m/s, and a 24-wheel train fills most
-# of a short record (the detector's background is the record's median): an engineer
-# lowers the low-pass and the threshold
+# wheel detector's default 100 Hz low-pass at 50 m/s, and a 24-wheel train fills most of a
+# short record (the detector's background is the record's median): an engineer lowers the
+# low-pass and the threshold
 DETECT = {"lowpass_hz": 50.0, "snr_db": 12.0}
 
 
