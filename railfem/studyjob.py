@@ -138,7 +138,7 @@ def _track_study(name: str, cfg: dict, out: Path) -> dict:
                "default": RM.a_terms_default(spec, bands, f, contact=hz,
                                              wheel_receptance=cfg["flexible_receptance"],
                                              cache=cfg["cache"])}
-    wl = RM.wavelength_bands(0.01, 0.5)
+    wl = R.wavelength_bands(0.01, 0.5)
 
     def combined(method, **kw):
         return RM.combine([method(lev, **kw) for lev in levels], wl).level

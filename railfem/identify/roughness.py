@@ -46,6 +46,7 @@ import numpy as np
 
 from railfem import contact as contact_mod
 from railfem.conventions import R_REF
+from railfem.roughness import wavelength_bands
 from railfem.estimators.passby_level import V_REF, PassbyLevel
 from railfem.simulate import passby as P
 from railfem.simulate.train import TrainLayout
@@ -56,7 +57,7 @@ log = logging.getLogger(__name__)
 __all__ = ["RoughnessEstimate", "ATerms", "full_method", "simplified_method", "ideal_level",
            "band_leakage",
            "a_terms_model", "a_terms_default", "effective_wheel_count", "combine",
-           "wavelength_bands", "DB_PER_NEPER", "A1_DEFAULT_MAX_HZ"]
+           "DB_PER_NEPER", "A1_DEFAULT_MAX_HZ"]
 
 DB_PER_NEPER = 20 * math.log10(math.e)  # D = 8.686 beta
 A1_DEFAULT_MAX_HZ = 4000.0  # the original method's A1 = 0 dB holds up to 4 kHz
@@ -111,14 +112,6 @@ def ideal_level(result: P.PassbyResult, train: TrainLayout, speed: float,
     return PassbyLevel(name=name, bands=result.bands, quantity="velocity",
                        mean_square=np.mean(result.band_velocity[:, sel] ** 2, axis=1),
                        wheels=wheels, window=(0.0, float(offsets[-1] / speed)), fs=None)
-
-
-def wavelength_bands(lam_min: float, lam_max: float) -> np.ndarray:
-    """Base-10 one-third-octave wavelength band centres 10^(i/10) m in [lam_min, lam_max],
-    longest first."""
-    i = np.arange(math.ceil(10 * math.log10(lam_min) - 1e-9),
-                  math.floor(10 * math.log10(lam_max) + 1e-9) + 1)
-    return 10.0 ** (i[::-1] / 10)
 
 
 def effective_wheel_count(beta, positions) -> np.ndarray:
