@@ -168,8 +168,8 @@ def _track_study(name: str, cfg: dict, out: Path) -> dict:
         t4 = time.perf_counter()
         result["sensitivity"] = _sensitivity(spec, f, bands, levels, tdr["hammer"], wl, hz,
                                              aw_rigid, ac, sensor_x, cfg)
-        result["causes"] = _causes(spec, f, bands, ideal, train, hz, aw_rigid, ac, sensor_x,
-                                   tdr, a_terms, wl, truth_spec, cfg)
+        result["causes"] = _causes(spec, tables, bands, ideal, train, hz, aw_rigid, ac,
+                                   sensor_x, tdr, a_terms, wl, truth_spec, cfg)
         result["tdr_causes"] = _tdr_causes(name, tables, train, hz, aw_rigid, ac, sensor_x,
                                            truth_spec, quasi, out, cfg)
         timing["sensitivity_and_causes_s"] = time.perf_counter() - t4
@@ -239,7 +239,7 @@ def _tdr_causes(name, tables, train, hz, aw, ac, sensor_x, truth_spec, quasi, ou
     return results
 
 
-def _causes(spec, f, bands, ideal, train, hz, aw, ac, sensor_x, tdr, a_terms, wl,
+def _causes(spec, base, bands, ideal, train, hz, aw, ac, sensor_x, tdr, a_terms, wl,
             truth_spec, cfg) -> dict:
     """Error of the simplified method on noise-free band values (a perfect measurement):
     the full conditions, then with one violated assumption removed at a time."""
@@ -248,21 +248,26 @@ def _causes(spec, f, bands, ideal, train, hz, aw, ac, sensor_x, tdr, a_terms, wl
     from .models import decay_rate
     from .simulate import passby as P
 
+    f = base.frequency
     true_level = np.interp(np.log(wl), np.log(truth_spec.wavelength[::-1]),
                            truth_spec.level[::-1])
 
     def error(tables, hammer, terms, **sim):
+        """Simplified estimate - truth on noise-free band values; the study's own
+        simulations unless other tables or switches are given."""
         ests = []
         for res0, v in ideal:
-            r = R.amplitude_at(truth_spec, f, v) * np.sqrt(C.filter_power("analytical", f, v,
-                                                                          hz))
-            res = P.simulate_passby(tables, train, aw, ac, r, sensor_x=sensor_x, before=0.0,
-                                    after=0.0, **sim) if sim or tables is not base else res0
+            if tables is base and not sim:
+                res = res0
+            else:
+                r = R.amplitude_at(truth_spec, f, v) * np.sqrt(
+                    C.filter_power("analytical", f, v, hz))
+                res = P.simulate_passby(tables, train, aw, ac, r, sensor_x=sensor_x,
+                                        before=0.0, after=0.0, **sim)
             lev = RM.ideal_level(res, train, v)
             ests.append(RM.simplified_method(lev, hammer, terms, contact=hz))
         return RM.combine(ests, wl).level - true_level
 
-    base = P.rail_tables(spec, f, cache=cfg["cache"])
     out = {}
     for ts in TDR_SOURCES:
         for asrc in A_SOURCES:
