@@ -103,3 +103,33 @@ def test_study_command_writes_its_tables_and_figures(tmp_path):
                  "figures/tdr_site.png", "figures/roughness_site.png",
                  "figures/sensitivity.png"):
         assert (out / name).stat().st_size > 0, name
+
+
+def test_simplified_with_the_decay_rate_of_a_hammer_dataset(tmp_path, recordings):
+    """--tdr hammer:DATA: a simulated EN 15461 hammer test of the same track written as a
+    dataset folder; its decay rate is the one the simplified method uses (equal to the
+    model's EN 15461 decay rate, '--tdr model', on the same positions)."""
+    from railfem import models
+    from railfem.io import write_dataset
+    from railfem.io.hammer import hammer_measurement
+    from railfem.roughnessjob import run_roughness
+
+    spec = preset("site", model="timoshenko-discrete")
+    f = ninth_octave_grid(250.0, 2000.0)
+    xs, pos, hx = models.hammer_x(spec)
+    frf = models.frf(spec, f, force=[models.head(x) for x in hx],
+                     response=[models.foot(xs)])
+    labels = {name: float(p) for name, p in zip(frf.force, pos)}
+    m = hammer_measurement(frf.to("mobility"), positions=labels, sleeper_spacing=0.6,
+                           sensors={frf.response[0]: "foot"})
+    data = write_dataset(tmp_path / "hammer", m)
+    common = dict(track="site", model="timoshenko-discrete", method="simplified",
+                  f_low=250.0, f_high=2000.0)
+    a = run_roughness(recordings, tmp_path / "a", tdr=f"hammer:{data}", **common)
+    b = run_roughness(recordings, tmp_path / "b", tdr="model", **common)
+    assert a["tdr_used"].startswith("EN 15461 of")
+    la = np.array([np.nan if v is None else v for v in a["roughness_db_re_1um"]])
+    lb = np.array([np.nan if v is None else v for v in b["roughness_db_re_1um"]])
+    ok = np.isfinite(la) & np.isfinite(lb)
+    assert ok.sum() >= 6
+    np.testing.assert_allclose(la[ok], lb[ok], atol=0.05)
