@@ -84,6 +84,21 @@ UIC60_I_VERTICAL = 3038.3e-8  # m^4, bending in the vertical plane (about the ho
 UIC60_I_LATERAL = 512.3e-8  # m^4, bending in the lateral plane
 
 
+def catalogue_section(material=None, *, kappa: float = UIC60_KAPPA_VERTICAL) -> "BeamSection":
+    """Timoshenko section of 60E1 in vertical bending with the EN 13674-1 catalogue
+    constants: area 76.70 cm^2, I = 3038.3 cm^4 (UIC60_AREA, UIC60_I_VERTICAL).
+
+    material: E, nu, rho and loss factor (default ``Material.steel()``). kappa: the
+    catalogue gives no shear coefficient; the default 0.4 is METHOD.md's value for UIC60
+    (the curved 60E1 mesh gives 0.393, ``railfem.section.shear_coefficient``). The mesh
+    counterpart is ``railfem.section.beam_section_from_mesh``.
+    """
+    from .materials import Material
+
+    return BeamSection.from_material(material or Material.steel(), area=UIC60_AREA,
+                                     I=UIC60_I_VERTICAL, kappa=kappa)
+
+
 def shear_coefficient(nu: float, shape: str = "rectangle") -> float:
     """Timoshenko shear coefficient kappa from Cowper (1966).
 

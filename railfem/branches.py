@@ -56,6 +56,7 @@ REFERENCE_K_SHARE = 1 / 3
 _TYPE_WORDS = {
     "cross-section (sym.)": "symmetric cross-section wave",
     "cross-section (antisym.)": "antisymmetric cross-section wave",
+    "cross-section": "cross-section wave",
 }
 
 
@@ -282,7 +283,7 @@ def _assemble(sweep, x, per_family, position, window) -> Branches:
 
 
 # ------------------------------------------------------------------------ on a waveguide
-def k_of_omega(guide: Waveguide, frequency, *, families=FAMILIES, method: str = "shift-invert",
+def k_of_omega(guide: Waveguide, frequency, *, families=None, method: str = "shift-invert",
                n_waves: int = 40, max_attenuation: float = MAX_ATTENUATION,
                min_mac: float = MIN_MAC,
                progress=None) -> Branches:
@@ -300,6 +301,7 @@ def k_of_omega(guide: Waveguide, frequency, *, families=FAMILIES, method: str = 
     if np.any(np.diff(f) <= 0):
         raise ValueError("frequency must be strictly increasing to follow branches; "
                          "sort it and drop duplicates")
+    families = tuple(guide.families) if families is None else families
     ops = {fam: waves.FamilyOperators(guide, fam) for fam in families}
     data = {fam: ([], [], [], []) for fam in families}  # k, freq, labels, shapes per point
     for i, fi in enumerate(f):
@@ -319,7 +321,7 @@ def k_of_omega(guide: Waveguide, frequency, *, families=FAMILIES, method: str = 
     return _assemble("frequency", f, per_family, np.log(f), REFERENCE_OCTAVES * np.log(2))
 
 
-def omega_of_k(guide: Waveguide, k, *, n_modes: int = 10, families=FAMILIES,
+def omega_of_k(guide: Waveguide, k, *, n_modes: int = 10, families=None,
                min_mac: float = MIN_MAC,
                progress=None) -> Branches:
     """The ``n_modes`` lowest undamped modes of each family at each real k (rad/m, >= 0,
@@ -336,6 +338,7 @@ def omega_of_k(guide: Waveguide, k, *, n_modes: int = 10, families=FAMILIES,
     if np.any(np.diff(k) <= 0):
         raise ValueError("k must be strictly increasing to follow branches; sort it and "
                          "drop duplicates")
+    families = tuple(guide.families) if families is None else families
     data = {fam: ([], [], [], []) for fam in families}
     for i, kk in enumerate(k):
         for fam in families:
@@ -384,7 +387,7 @@ class CutOn:
 
 
 def cut_ons(guide: Waveguide, f_low: float = 0.0, f_high: float = np.inf, *,
-            families=FAMILIES, n_per_family: int = 12) -> list[CutOn]:
+            families=None, n_per_family: int = 12) -> list[CutOn]:
     """The free-rail cut-on frequencies between ``f_low`` and ``f_high`` (Hz), named.
 
     A cut-on frequency is a non-zero natural frequency of the section at k = 0 (the values
@@ -403,7 +406,7 @@ def cut_ons(guide: Waveguide, f_low: float = 0.0, f_high: float = np.inf, *,
     if not (np.isfinite(f_low) and f_low >= 0 and f_high > f_low):
         raise ValueError(f"need 0 <= f_low < f_high (Hz), got {f_low}, {f_high}")
     out = []
-    for fam in families:
+    for fam in (guide.families if families is None else families):
         K, M, ops = waves.real_k_mode_matrices(guide, fam, 0.0)
         n = min(n_per_family + 4, K.shape[0] - 2)
         w2, vec = spl.eigsh(K, k=n, M=M, sigma=-(2 * np.pi * 100.0) ** 2, which="LM")

@@ -78,6 +78,18 @@ def _add_profile(p: argparse.ArgumentParser, h_default: float | None = 10.0) -> 
                        help=f"element size in mm (default {h_default:g})")
 
 
+def _add_mesh_file(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--mesh", type=Path, default=None, metavar="FILE",
+                   help="use this section mesh instead of --profile/--h: a railfem .npz "
+                        "(railfem mesh) or any 2-D mesh file meshio reads (Gmsh .msh 2.2 / "
+                        "4.x, 3- or 6-node triangles); symmetry is detected")
+    p.add_argument("--mesh-units", choices=("m", "mm"), default=None,
+                   help="length unit of a --mesh file that is not .npz (required for those)")
+    p.add_argument("--mesh-axes", default="xy", metavar="AXES",
+                   help="which axes of a --mesh file are lateral and vertical: 'xy' "
+                        "(default: x lateral, y vertical), 'xz', '-y,z', ...")
+
+
 # ------------------------------------------------------------------------- mesh
 def _mesh_args(p: argparse.ArgumentParser) -> None:
     _add_profile(p)
@@ -106,8 +118,7 @@ def _mesh_run(args) -> int:
 # ------------------------------------------------------------------- dispersion
 def _dispersion_args(p: argparse.ArgumentParser) -> None:
     _add_profile(p)
-    p.add_argument("--mesh", type=Path, default=None, metavar="FILE.npz",
-                   help="use this saved mesh (railfem mesh) instead of --profile/--h")
+    _add_mesh_file(p)
     g = p.add_argument_group("frequencies (k(omega), default) or wavenumbers (omega(k))")
     g.add_argument("--fmin", type=_positive, default=None, metavar="HZ",
                    help="lowest frequency in Hz (default 50)")
@@ -172,6 +183,7 @@ def _dispersion_run(args) -> int:
                   else args.render_frequency)
     paths = jobs.run_dispersion(args.profile, args.h * 1e-3, args.out, frequencies=frequencies,
                                 k_values=k_values, mesh_file=args.mesh,
+                                mesh_units=args.mesh_units, mesh_axes=args.mesh_axes,
                                 loss_factor=args.loss_factor, method=args.method,
                                 n_waves=args.n_waves, n_modes=args.n_modes,
                                 render_frequency=render)
@@ -193,6 +205,13 @@ def _convergence_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--reference", choices=("richardson", "finest"), default="richardson",
                    help="error reference: Richardson extrapolation of the three finest "
                         "meshes (default) or the finest mesh")
+    p.add_argument("--geometry", choices=("curved", "straight", "both"), default="curved",
+                   help="curved 6-node elements (mid-side nodes on the outline, default), "
+                        "their straight-sided twins, or both (straight in "
+                        "convergence_straight.*)")
+    p.add_argument("--shipped", action="store_true",
+                   help="use the shipped meshes (meshes/) where there is one for the size "
+                        "instead of meshing afresh")
     p.add_argument("--out", type=Path, default=Path("railfem-output/convergence"),
                    metavar="DIR", help="output folder (default railfem-output/convergence)")
 
@@ -202,16 +221,27 @@ def _convergence_run(args) -> int:
 
     sizes = np.array(args.sizes) * 1e-3
     paths = jobs.run_convergence(args.profile, sizes, args.out, frequencies=args.frequencies,
-                                 n_cut_on=args.n_cut_on, reference=args.reference)
-    st = paths["study"]
-    sys.stdout.write("h (mm)  DOFs   cut-on frequencies (Hz)\n")
-    for i, h in enumerate(st.sizes):
-        sys.stdout.write(f"{h * 1e3:6g} {st.n_dofs[i]:6d}  "
-                         + " ".join(f"{v:9.1f}" for v in st.cut_on[i]) + "\n")
-    sys.stdout.write("reference     " + " ".join(f"{v:9.1f}" for v in st.cut_on_reference)
-                     + f"  ({st.reference['cut_on']})\n")
-    sys.stdout.write("rate          " + " ".join(f"{v:9.2f}" for v in st.cut_on_rate) + "\n")
-    sys.stdout.write(f"wrote {paths['csv']}\nwrote {paths['png']}\nwrote {paths['json']}\n")
+                                 n_cut_on=args.n_cut_on, reference=args.reference,
+                                 geometry=args.geometry, use_shipped=args.shipped)
+    for suffix in ("", "_straight"):
+        if f"study{suffix}" not in paths:
+            continue
+        st = paths[f"study{suffix}"]
+        sys.stdout.write(f"{'curved' if st.curved else 'straight-sided'} 6-node elements\n"
+                         "h (mm)  DOFs   cut-on frequencies (Hz)\n")
+        for i, h in enumerate(st.sizes):
+            sys.stdout.write(f"{h * 1e3:6g} {st.n_dofs[i]:6d}  "
+                             + " ".join(f"{v:9.2f}" for v in st.cut_on[i]) + "\n")
+        sys.stdout.write("reference     " + " ".join(f"{v:9.2f}" for v in st.cut_on_reference)
+                         + f"  ({st.reference['cut_on']})\n")
+        sys.stdout.write("error finest  " + " ".join(f"{100 * v:8.4f}%" for v in
+                                                     st.cut_on_error[np.argmin(st.sizes)])
+                         + "\n")
+        sys.stdout.write("rate          " + " ".join(f"{v:9.2f}" for v in st.cut_on_rate) + "\n")
+        sys.stdout.write("Richardson p  " + " ".join(f"{v:9.2f}" for v in st.cut_on_order)
+                         + "\n")
+        sys.stdout.write(f"wrote {paths['csv' + suffix]}\nwrote {paths['png' + suffix]}\n"
+                         f"wrote {paths['json' + suffix]}\n")
     return 0
 
 
@@ -438,8 +468,7 @@ def _finite(text: str) -> float:
 
 def _mobility_args(p: argparse.ArgumentParser) -> None:
     _add_profile(p)
-    p.add_argument("--mesh", type=Path, default=None, metavar="FILE.npz",
-                   help="use this saved mesh (railfem mesh) instead of --profile/--h")
+    _add_mesh_file(p)
     p.add_argument("--free", action="store_true",
                    help="free (unsupported) rail; the only model of this command, so it is "
                         "also the default")
@@ -485,7 +514,8 @@ def _mobility_run(args) -> int:
                                           responses=args.response, x=x,
                                           patch_width=args.patch_width,
                                           load_length=args.load_length, eta=args.eta,
-                                          mesh_file=args.mesh, method=args.method,
+                                          mesh_file=args.mesh, mesh_units=args.mesh_units,
+                                          mesh_axes=args.mesh_axes, method=args.method,
                                           n_waves=args.n_waves)
     sys.stdout.write(f"wrote {paths['csv']}\nwrote {paths['png']}\nwrote {paths['json']}\n")
     return 0
@@ -673,6 +703,68 @@ def _tdr_run(args) -> int:
     return 0
 
 
+# ------------------------------------------------------------ track parameters from data
+def _fit_args(p: argparse.ArgumentParser) -> None:
+    from .identify.fit import DEFAULT_PARAMETERS
+    from .spec import MODELS
+
+    p.add_argument("data", type=Path, metavar="DATA",
+                   help="hammer dataset folder / .toml descriptor, or a decay-rate table .csv")
+    p.add_argument("--model", choices=MODELS, default="wfe-discrete",
+                   help="track model (default wfe-discrete)")
+    p.add_argument("--use", default=None, metavar="Q,Q",
+                   help="quantities fitted: point,phase,transfer,tdr (default "
+                   "point,transfer,tdr for hammer data, tdr for a table)")
+    p.add_argument("--parameters", default=",".join(DEFAULT_PARAMETERS), metavar="P,P",
+                   help="parameters fitted: kp,eta_p,kb,eta_b,eta_r,ms,pad_length "
+                   f"(default {','.join(DEFAULT_PARAMETERS)})")
+    p.add_argument("--preset", default="site", help="spec whose other values are kept "
+                   "(Table 1 preset, default site; the data's sleeper spacing is used)")
+    p.add_argument("--row", type=_count, metavar="N", default=None,
+                   help="table: row N of the selection (0-based)")
+    p.add_argument("--select", default=None, metavar="K=V,...",
+                   help="table: rows matching e.g. dir=v,sec=B5 (keys dir, sec, date, rail)")
+    p.add_argument("--campaign", action="store_true",
+                   help="table: fit every selected row (on a Dask cluster)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="Dask scheduler address for --campaign (default: a local cluster)")
+    p.add_argument("--transfer-positions", type=_non_negative, nargs="+", metavar="M",
+                   help="hammer distances (m) of the transfers fitted (nearest measured)")
+    p.add_argument("--f-range", type=_positive, nargs=2, metavar=("LOW", "HIGH"),
+                   help="frequency range (Hz) of the FRF points fitted")
+    p.add_argument("--starts", type=_count, default=8, metavar="N",
+                   help="multi-start points (Sobol, default 8)")
+    p.add_argument("--workers", type=_count, default=None, metavar="N",
+                   help="parallel processes (default: all cores)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the start points")
+    p.add_argument("--no-profiles", action="store_true", help="skip the profile likelihoods")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/fit"), metavar="DIR",
+                   help="output folder (default railfem-output/fit)")
+
+
+def _fit_run(args) -> int:
+    from .fitjob import parse_use, run_fit
+    from .spec import preset
+
+    use = parse_use(args.use) if args.use else None
+    params = tuple(x.strip() for x in args.parameters.split(",") if x.strip())
+    s = run_fit(args.data, args.out, model=args.model, use=use, parameters=params,
+                select=args.select, row=args.row, campaign=args.campaign,
+                scheduler=args.scheduler, base=preset(args.preset), n_starts=args.starts,
+                workers=args.workers, seed=args.seed,
+                transfer_positions=args.transfer_positions,
+                f_range=tuple(args.f_range) if args.f_range else None,
+                profiles=() if args.no_profiles else ("kp", "kb"),
+                command=" ".join(sys.argv))
+    results = [s["result"]] if "result" in s else [r for r in s["rows"]]
+    for r in results:
+        for name, p in r["parameters"].items():
+            sys.stdout.write(f"{name} = {p['value']:.4g} [{p['ci95'][0]:.3g}, "
+                             f"{p['ci95'][1]:.3g}] identifiable: {p['identifiable']}\n")
+    sys.stdout.write(f"wrote {Path(args.out) / 'run.json'}\n")
+    return 0
+
+
 COMMANDS = {
     "mesh": (_mesh_args, _mesh_run, "mesh a rail profile and write a mesh-quality summary"),
     "dispersion": (_dispersion_args, _dispersion_run,
@@ -689,6 +781,7 @@ COMMANDS = {
     "roughness": (_roughness_args, _roughness_run,
                   "combined wheel-rail roughness from pass-by recordings (full, simplified)"),
     "study": (_study_args, _study_run, "error studies on simulated data"),
+    "fit": (_fit_args, _fit_run, "track parameters fitted to measured data, with uncertainty"),
 }
 
 

@@ -15,8 +15,10 @@ extrapolation h -> 0 of the three finest meshes (``reference="richardson"``, the
 it falls back to the finest mesh when the three values do not converge monotonically) or the
 finest mesh itself (``reference="finest"``). The observed rate is the least-squares slope of
 log(error) against log(h) over the meshes (all of them for Richardson, all but the finest
-for "finest"). P2 elements on a polygon give eigenvalue (and so frequency) errors of order
-h^4; straight-sided elements on a curved outline are limited by the geometry to about h^2.
+for "finest"). P2 elements give eigenvalue (and so frequency) errors of order h^4 when the
+geometry is exact (a polygon) or curved isoparametric (the default meshes); straight-sided
+6-node elements on a curved outline are limited by the geometry to about h^2
+(``curved=False`` keeps them for this comparison).
 """
 from __future__ import annotations
 
@@ -40,7 +42,8 @@ PROPAGATING_TOL = 1e-6
 class ConvergenceStudy:
     """Results of :func:`convergence_study`; arrays have the mesh sizes along axis 0.
 
-    profile: profile name. sizes: (ns,) element sizes h in m, as given.
+    profile: profile name. curved: curved 6-node elements (else straight-sided).
+    sizes: (ns,) element sizes h in m, as given.
     n_dofs: (ns,) total DOFs; n_dofs_family: dict family -> (ns,) reduced DOFs.
     cut_on: (ns, nc) cut-on frequencies in Hz of the nc lowest cross-section modes of the
     finest mesh; cut_on_family: (nc,) their family; cut_on_rank: (nc,) rank within it.
@@ -48,11 +51,13 @@ class ConvergenceStudy:
     NaN-padded; wave_family, wave_label: (nf, nw) family and wave type (finest mesh).
     reference: "richardson" or "finest", per quantity kind actually used.
     cut_on_reference: (nc,) reference values; cut_on_error: (ns, nc) relative errors;
-    cut_on_rate: (nc,) observed orders; likewise wavenumber_reference / _error / _rate
+    cut_on_rate: (nc,) observed orders (least-squares slope over all meshes);
+    cut_on_order: (nc,) Richardson order of the three finest meshes (NaN without one); likewise wavenumber_reference / _error / _rate
     with shapes (nf, nw), (ns, nf, nw), (nf, nw).
     """
 
     profile: str
+    curved: bool
     sizes: np.ndarray
     n_dofs: np.ndarray
     n_dofs_family: dict
@@ -66,6 +71,7 @@ class ConvergenceStudy:
     cut_on_reference: np.ndarray
     cut_on_error: np.ndarray
     cut_on_rate: np.ndarray
+    cut_on_order: np.ndarray
     wavenumber_reference: np.ndarray
     wavenumber_error: np.ndarray
     wavenumber_rate: np.ndarray
@@ -119,6 +125,7 @@ def _errors_and_rates(h, values, reference: str):
     ns = len(h)
     flat = values.reshape(ns, -1)
     ref = np.full(flat.shape[1], np.nan)
+    order = np.full(flat.shape[1], np.nan)
     err = np.full(flat.shape, np.nan)
     rate = np.full(flat.shape[1], np.nan)
     finest = int(np.argmin(h))
@@ -131,7 +138,7 @@ def _errors_and_rates(h, values, reference: str):
         used = "finest"
         if reference == "richardson" and ns >= 3:
             try:
-                ref[j], _ = richardson(h[fine3], col[fine3])
+                ref[j], order[j] = richardson(h[fine3], col[fine3])
                 used = "richardson"
             except ValueError:
                 log.info("quantity %d: no monotone convergence, reference = finest mesh", j)
@@ -145,7 +152,7 @@ def _errors_and_rates(h, values, reference: str):
         methods.add(used)
     shape = values.shape[1:]
     return (ref.reshape(shape), err.reshape(values.shape), rate.reshape(shape),
-            "+".join(sorted(methods)) or "none")
+            order.reshape(shape), "+".join(sorted(methods)) or "none")
 
 
 # ---------------------------------------------------------------------------- study
@@ -167,7 +174,7 @@ def _propagating(guide, ops_list, frequency_hz, n_waves):
 def convergence_study(profile: RailProfile | str, sizes, *, frequencies=(), n_cut_on: int = 6,
                       progress=None, reference: str = "richardson",
                       material: Material | None = None, n_waves: int = 40,
-                      use_shipped: bool = False) -> ConvergenceStudy:
+                      use_shipped: bool = False, curved: bool = True) -> ConvergenceStudy:
     """Mesh-convergence study over element sizes (m).
 
     profile: a RailProfile or a name for :func:`railfem.profiles.get_profile`.
@@ -179,6 +186,8 @@ def convergence_study(profile: RailProfile | str, sizes, *, frequencies=(), n_cu
     material: defaults to undamped steel (a loss factor would make every wave complex).
     use_shipped: take the shipped mesh when there is one for (profile, h); by default every
     mesh is generated afresh so the study does not depend on the files in meshes/.
+    curved: curved 6-node elements (default) or the straight-sided twins of the same
+    triangulations (mid-side nodes at the chord midpoints).
     """
     prof = get_profile(profile) if isinstance(profile, str) else profile
     h = np.asarray(sizes, dtype=float).ravel()
@@ -200,18 +209,19 @@ def convergence_study(profile: RailProfile | str, sizes, *, frequencies=(), n_cu
 
     ns = h.size
     n_dofs = np.zeros(ns, dtype=np.int64)
-    n_fam = {fam: np.zeros(ns, dtype=np.int64) for fam in waveguide.FAMILIES}
-    cut = {fam: np.full((ns, n_cut_on), np.nan) for fam in waveguide.FAMILIES}
+    n_fam, cut = {}, {}
     per_size_waves = []
     for i, hi in enumerate(h):
-        mesh = (meshing.get_mesh(prof, hi) if use_shipped else meshing.mesh_profile(prof, hi))
+        mesh = (meshing.get_mesh(prof, hi, curved=curved) if use_shipped
+                else meshing.mesh_profile(prof, hi, curved=curved))
         guide = waveguide.assemble(mesh, material)
         n_dofs[i] = guide.n_dofs
-        for fam in waveguide.FAMILIES:
-            n_fam[fam][i] = guide.families[fam].T.shape[1]
+        for fam in guide.families:
+            n_fam.setdefault(fam, np.zeros(ns, dtype=np.int64))[i] = \
+                guide.families[fam].T.shape[1]
             c = waves.cut_on_frequencies(guide, n_cut_on, family=fam)
-            cut[fam][i, : len(c)] = c
-        ops = [waves.FamilyOperators(guide, fam) for fam in waveguide.FAMILIES]
+            cut.setdefault(fam, np.full((ns, n_cut_on), np.nan))[i, : len(c)] = c
+        ops = [waves.FamilyOperators(guide, fam) for fam in guide.families] if f.size else []
         per_size_waves.append([_propagating(guide, ops, fi, n_waves) for fi in f])
         log.info("convergence %s: h = %.4g mm, %d DOFs done (%d/%d)", prof.name, hi * 1e3,
                  guide.n_dofs, i + 1, ns)
@@ -220,7 +230,7 @@ def convergence_study(profile: RailProfile | str, sizes, *, frequencies=(), n_cu
 
     # cut-on: the n_cut_on lowest of the finest mesh, each tracked by (family, rank)
     finest = int(np.argmin(h))
-    cand = [(cut[fam][finest, r], fam, r) for fam in waveguide.FAMILIES
+    cand = [(cut[fam][finest, r], fam, r) for fam in cut
             for r in range(n_cut_on) if np.isfinite(cut[fam][finest, r])]
     cand.sort()
     cand = cand[:n_cut_on]
@@ -245,13 +255,13 @@ def convergence_study(profile: RailProfile | str, sizes, *, frequencies=(), n_cu
                 if rank < len(mine):
                     kk[i, q, j] = mine[rank]
 
-    c_ref, c_err, c_rate, c_used = _errors_and_rates(h, cut_on, reference)
-    k_ref, k_err, k_rate, k_used = _errors_and_rates(h, kk, reference)
+    c_ref, c_err, c_rate, c_order, c_used = _errors_and_rates(h, cut_on, reference)
+    k_ref, k_err, k_rate, _, k_used = _errors_and_rates(h, kk, reference)
     return ConvergenceStudy(
-        profile=prof.name, sizes=h, n_dofs=n_dofs, n_dofs_family=n_fam, cut_on=cut_on,
+        profile=prof.name, curved=curved, sizes=h, n_dofs=n_dofs, n_dofs_family=n_fam, cut_on=cut_on,
         cut_on_family=cut_fam, cut_on_rank=cut_rank, frequencies=f, wavenumbers=kk,
         wave_family=wfam, wave_label=wlab, cut_on_reference=c_ref, cut_on_error=c_err,
-        cut_on_rate=c_rate, wavenumber_reference=k_ref, wavenumber_error=k_err,
+        cut_on_rate=c_rate, cut_on_order=c_order, wavenumber_reference=k_ref, wavenumber_error=k_err,
         wavenumber_rate=k_rate, reference={"cut_on": c_used, "wavenumbers": k_used})
 
 

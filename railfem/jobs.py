@@ -79,10 +79,20 @@ def _resolve_profile(profile) -> RailProfile:
     return get_profile(profile) if isinstance(profile, (str, os.PathLike)) else profile
 
 
-def load_or_mesh(profile, h: float, mesh_file=None) -> meshing.SectionMesh:
-    """The mesh from ``mesh_file`` if given, else the shipped mesh or a new Gmsh mesh."""
+def load_or_mesh(profile, h: float, mesh_file=None, *, mesh_units: str | None = None,
+                 mesh_axes: str = "xy") -> meshing.SectionMesh:
+    """The mesh from ``mesh_file`` if given, else the shipped mesh or a new Gmsh mesh.
+
+    A ``.npz`` file is a railfem mesh (:func:`railfem.meshing.load_mesh`); any other file
+    is read with meshio (:func:`railfem.meshing.read_mesh`) and needs ``mesh_units`` ('m'
+    or 'mm') and ``mesh_axes`` (file axes that are lateral and vertical, e.g. 'xy')."""
     if mesh_file is not None:
-        return meshing.load_mesh(mesh_file)
+        if Path(mesh_file).suffix.lower() == ".npz":
+            return meshing.load_mesh(mesh_file)
+        if mesh_units is None:
+            raise ValueError(f"mesh file {mesh_file}: give its length unit (--mesh-units m "
+                             "or mm; mesh_units= in Python)")
+        return meshing.read_mesh(mesh_file, units=mesh_units, axes=mesh_axes)
     return meshing.get_mesh(_resolve_profile(profile), h)
 
 
@@ -109,19 +119,22 @@ def mesh_quality(mesh: meshing.SectionMesh) -> dict:
     inradius = area / s
     circumradius = L.prod(axis=1) / (4 * area)
     aspect = circumradius / (2 * inradius)
-    edges = np.sort(np.vstack([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
-    n_edges = len(np.unique(edges, axis=0))
-    n_p2 = len(v) + n_edges
+    n_p2 = len(mesh.nodes)
 
     A, cz, Iy, Iz = section.moments(mesh)
     poly = polygon_properties(mesh.profile.outline)
     mesh_props = {"area": A, "centroid_z": cz, "I_y": Iy, "I_z": Iz}
+    straight = dict(zip(mesh_props, section.moments(mesh.straight())))
     vs_polygon = {k: float(val / getattr(poly, k) - 1) for k, val in mesh_props.items()}
     guide = waveguide.assemble(mesh)
     q = {
         "profile": mesh.profile.name,
         "profile_source": mesh.profile.source,
+        "mesh_source": mesh.source,
         "h_m": float(mesh.h),
+        "curved": bool(mesh.curved),
+        "max_midside_offset_m": mesh.midside_offset,
+        "min_jacobian_ratio": float(meshing.min_jacobian_ratio(mesh).min()),
         "n_vertices": int(len(v)),
         "n_triangles": int(len(t)),
         "n_p2_nodes": int(n_p2),
@@ -133,6 +146,7 @@ def mesh_quality(mesh: meshing.SectionMesh) -> dict:
         "mean_aspect_ratio": float(aspect.mean()),
         "edge_length_m": {"min": float(L.min()), "mean": float(L.mean()), "max": float(L.max())},
         "section_properties": {k: float(val) for k, val in mesh_props.items()},
+        "section_properties_straight_sided": {k: float(val) for k, val in straight.items()},
         "polygon_properties": {k: float(getattr(poly, k)) for k in mesh_props},
         "relative_error_vs_polygon": vs_polygon,
         "node_sets": {k: int(len(s_)) for k, s_ in guide.node_sets.items()},
@@ -140,6 +154,8 @@ def mesh_quality(mesh: meshing.SectionMesh) -> dict:
     if mesh.profile.name.upper() in ("60E1", "UIC60"):
         q["relative_error_vs_EN13674_1"] = {k: float(mesh_props[k] / EN13674_60E1[k] - 1)
                                             for k in EN13674_60E1}
+        q["relative_error_vs_EN13674_1_straight_sided"] = {
+            k: float(straight[k] / EN13674_60E1[k] - 1) for k in EN13674_60E1}
     try:
         import gmsh
 
@@ -153,6 +169,9 @@ def format_mesh_quality(q: dict) -> str:
     """Human-readable text of :func:`mesh_quality`."""
     lines = [
         f"mesh {q['profile']} at h = {q['h_m'] * 1e3:g} mm",
+        f"  {'curved' if q['curved'] else 'straight-sided'} 6-node triangles: mid-side nodes "
+        f"up to {q['max_midside_offset_m'] * 1e3:.3g} mm off the chords, smallest det J "
+        f"ratio {q['min_jacobian_ratio']:.3f}",
         f"  vertices {q['n_vertices']}, triangles {q['n_triangles']}, "
         f"P2 nodes {q['n_p2_nodes']}, DOFs {q['n_dofs']} "
         + "(" + ", ".join(f"{k} {n}" for k, n in q["n_dofs_family"].items()) + ")",
@@ -171,6 +190,9 @@ def format_mesh_quality(q: dict) -> str:
     if "relative_error_vs_EN13674_1" in q:
         lines.append("  vs EN 13674-1 60E1: " + ", ".join(
             f"{k} {err * 100:+.3f} %" for k, err in q["relative_error_vs_EN13674_1"].items()))
+        lines.append("  (straight-sided: " + ", ".join(
+            f"{k} {err * 100:+.3f} %"
+            for k, err in q["relative_error_vs_EN13674_1_straight_sided"].items()) + ")")
     lines.append("  node sets: " + ", ".join(f"{k} {n}" for k, n in q["node_sets"].items()))
     if "gmsh_version" in q:
         lines.append(f"  gmsh {q['gmsh_version']}")
@@ -232,7 +254,7 @@ def wave_shapes(guide: waveguide.Waveguide, frequency_hz: float, *, method: str 
 
     max_att = MAX_ATTENUATION if max_attenuation is None else max_attenuation
     out = []
-    for fam in waveguide.FAMILIES:
+    for fam in guide.families:
         ops = waves.FamilyOperators(guide, fam)
         w = waves.waves_at(ops, 2 * np.pi * frequency_hz, method=method, n_waves=n_waves)
         labels = label_waves(guide, ops, w)
@@ -279,8 +301,8 @@ def _csv_text(header: str, columns, rows) -> str:
 
 def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=None,
                    mesh_file=None, loss_factor: float = 0.0, method: str = "shift-invert",
-                   n_waves: int = 40, n_modes: int = 12,
-                   render_frequency: float | None = DEFAULT_RENDER_FREQUENCY,
+                   n_waves: int = 40, n_modes: int = 12, mesh_units: str | None = None,
+                   mesh_axes: str = "xy", render_frequency: float | None = DEFAULT_RENDER_FREQUENCY,
                    max_renders: int = 12, window_size=(800, 800), progress=None) -> dict:
     """Free-rail dispersion of ``profile`` meshed at ``h`` (m), written to ``out_dir``.
 
@@ -297,8 +319,10 @@ def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=Non
         raise ValueError("give either frequencies (Hz) or k_values (rad/m), not both/neither")
     out = prepare_output_dir(out_dir, "dispersion")
     material = Material.steel(loss_factor)
-    mesh = load_or_mesh(profile, h, mesh_file)
+    mesh = load_or_mesh(profile, h, mesh_file, mesh_units=mesh_units, mesh_axes=mesh_axes)
     guide = waveguide.assemble(mesh, material)
+    if frequencies is not None:
+        waveguide.check_resolution(guide, np.max(frequencies))
     log.info("dispersion of %s: %d DOFs (%s)", mesh.name, guide.n_dofs,
              ", ".join(f"{k} {f.T.shape[1]}" for k, f in guide.families.items()))
     paths = {}
@@ -350,7 +374,8 @@ def run_dispersion(profile, h: float, out_dir, *, frequencies=None, k_values=Non
     meta = {
         "command": "dispersion",
         "profile": mesh.profile.name, "profile_source": mesh.profile.source, "mesh": mesh.name,
-        "h_m": mesh.h, "n_dofs": guide.n_dofs,
+        "mesh_source": mesh.source, "mesh_origin_m": list(mesh.origin), "curved": mesh.curved,
+        "h_m": mesh.h, "n_dofs": guide.n_dofs, "families": list(guide.families),
         "material": {"E": material.E, "nu": material.nu, "rho": material.rho,
                      "loss_factor": material.loss_factor},
         "mode": "k(omega)" if frequencies is not None else "omega(k)",
@@ -384,10 +409,11 @@ def convergence_table(study) -> str:
     nf, nw = study.wavenumbers.shape[1:]
     header = (
         "# railfem mesh-convergence study\n"
-        f"# profile {study.profile}; reference: {study.reference}\n"
+        f"# profile {study.profile}, {'curved' if study.curved else 'straight-sided'} 6-node "
+        f"elements; reference: {study.reference}\n"
         "# rows: one per element size h; then 'reference' (Richardson extrapolation of the "
-        "three finest meshes, or the finest mesh) and 'rate' (observed order: slope of "
-        "log|relative error| vs log h)\n"
+        "three finest meshes, or the finest mesh), 'rate' (observed order: slope of "
+        "log|relative error| vs log h) and 'richardson_order' (order of the Richardson fit)\n"
         "# cut_on_*: cut-on frequencies (Hz) of the cross-section modes at k = 0, tracked "
         "by symmetry family and rank; k_*: Re k (rad/m) of the propagating waves\n")
     rows = []
@@ -400,6 +426,7 @@ def convergence_table(study) -> str:
                 + list(study.wavenumber_reference.reshape(nf * nw)))
     rows.append(["rate"] + blank + list(study.cut_on_rate)
                 + list(study.wavenumber_rate.reshape(nf * nw)))
+    rows.append(["richardson_order"] + blank + list(study.cut_on_order) + [""] * (nf * nw))
     return _csv_text(header, cols + qnames + knames, rows)
 
 
@@ -416,23 +443,48 @@ def _convergence_plot(sizes, errors, labels, title, path):
 
 
 def run_convergence(profile, sizes, out_dir, *, frequencies=(), n_cut_on: int = 6,
-                    reference: str = "richardson", progress=None) -> dict:
+                    reference: str = "richardson", progress=None, geometry: str = "curved",
+                    use_shipped: bool = False) -> dict:
     """Run :func:`railfem.convergence.convergence_study` and write convergence.csv,
     convergence.png (log-log relative error of the cut-on frequencies against h with fitted
     slopes), convergence_wavenumbers.png (the same for the wavenumbers, when frequencies
-    are given) and convergence.json (all arrays)."""
+    are given) and convergence.json (all arrays).
+
+    geometry: 'curved' (6-node elements with mid-side nodes on the outline, default),
+    'straight' (the straight-sided twins) or 'both' (curved in the files above, straight in
+    convergence_straight.csv / .png / .json). use_shipped: take the shipped meshes where
+    they exist instead of meshing afresh."""
     from .convergence import convergence_study
 
+    if geometry not in ("curved", "straight", "both"):
+        raise ValueError(f"geometry must be 'curved', 'straight' or 'both', got {geometry!r}")
     out = prepare_output_dir(out_dir, "convergence")
-    study = convergence_study(_resolve_profile(profile), sizes, frequencies=frequencies,
-                              n_cut_on=n_cut_on, reference=reference,
-                              progress=progress or progress_logger("convergence (meshes)"))
-    paths = {"csv": write_text_atomic(out / "convergence.csv", convergence_table(study))}
+    runs = {"curved": [True], "straight": [False], "both": [True, False]}[geometry]
+    paths = {}
+    for curved in runs:
+        study = convergence_study(_resolve_profile(profile), sizes, frequencies=frequencies,
+                                  n_cut_on=n_cut_on, reference=reference, curved=curved,
+                                  use_shipped=use_shipped,
+                                  progress=progress or progress_logger("convergence (meshes)"))
+        suffix = "_straight" if (geometry == "both" and not curved) else ""
+        written = _write_convergence(study, out, suffix)
+        if suffix:
+            paths.update({f"{k}{suffix}": v for k, v in written.items()})
+        else:
+            paths.update(written)
+    return paths
+
+
+def _write_convergence(study, out: Path, suffix: str) -> dict:
+    kind = "curved" if study.curved else "straight-sided"
+    paths = {"csv": write_text_atomic(out / f"convergence{suffix}.csv",
+                                      convergence_table(study))}
     labels = [f"cut-on {j + 1} ({fam[:4]}.), {ref:.0f} Hz" for j, (fam, ref) in
               enumerate(zip(study.cut_on_family, study.cut_on_reference))]
     paths["png"] = _convergence_plot(study.sizes, np.abs(study.cut_on_error), labels,
-                                     f"{study.profile}: cut-on frequencies "
-                                     f"({study.reference['cut_on']})", out / "convergence.png")
+                                     f"{study.profile} ({kind}): cut-on frequencies "
+                                     f"({study.reference['cut_on']})",
+                                     out / f"convergence{suffix}.png")
     nf, nw = study.wavenumbers.shape[1:]
     err, labels = [], []
     for q, f in enumerate(study.frequencies):
@@ -443,8 +495,8 @@ def run_convergence(profile, sizes, out_dir, *, frequencies=(), n_cut_on: int = 
     if err:
         paths["png_wavenumbers"] = _convergence_plot(
             study.sizes, np.column_stack(err), labels,
-            f"{study.profile}: wavenumbers ({study.reference['wavenumbers']})",
-            out / "convergence_wavenumbers.png")
+            f"{study.profile} ({kind}): wavenumbers ({study.reference['wavenumbers']})",
+            out / f"convergence{suffix}_wavenumbers.png")
 
     def arr(x):
         return json_safe(np.asarray(x).tolist())
@@ -452,12 +504,13 @@ def run_convergence(profile, sizes, out_dir, *, frequencies=(), n_cut_on: int = 
     data = {k: arr(getattr(study, k)) for k in (
         "sizes", "n_dofs", "cut_on", "cut_on_family", "cut_on_rank", "frequencies",
         "wave_family", "wave_label", "cut_on_reference", "cut_on_error", "cut_on_rate",
-        "wavenumber_reference", "wavenumber_rate")}
+        "cut_on_order", "wavenumber_reference", "wavenumber_rate")}
     data["wavenumbers"] = arr(study.wavenumbers)
     data["wavenumber_error"] = arr(study.wavenumber_error)
     data["profile"], data["reference"] = study.profile, study.reference
+    data["curved"] = study.curved
     data["n_dofs_family"] = {k: arr(v) for k, v in study.n_dofs_family.items()}
-    paths["json"] = write_text_atomic(out / "convergence.json",
+    paths["json"] = write_text_atomic(out / f"convergence{suffix}.json",
                                       json.dumps(data, indent=1, allow_nan=False) + "\n")
     paths["study"] = study
     log.info("wrote %s and %s", paths["csv"], paths["png"])

@@ -4,7 +4,8 @@ A shape is projected, in the mass metric, onto the rigid motions of the section
 (translations along x, y, z and the rotation about the x axis). A shape carried mostly by
 one of them is a beam-type wave; otherwise it is a cross-section wave, named by where it
 deforms: symmetric shapes dominated by the foot are *foot flapping*, antisymmetric ones whose
-head and foot rotate in opposite senses are *web bending*.
+head and foot rotate in opposite senses are *web bending*; on an asymmetric section (one
+family 'full') both tests apply.
 """
 from __future__ import annotations
 
@@ -71,17 +72,19 @@ def label_shapes(guide, ops, phi_reduced: np.ndarray) -> list[str]:
 def _cross_section_label(guide, family: str, u: np.ndarray, zmin: float, height: float) -> str:
     nodes = guide.nodes
     amp = np.abs(u[guide.node_dofs]) ** 2  # (n, 3)
-    if family == "symmetric":
-        foot = nodes[:, 1] < zmin + 0.2 * height
-        return "foot flapping" if amp[foot].sum() > 0.5 * amp.sum() else "cross-section (sym.)"
-    uy = u[guide.node_dofs[:, 1]]
-    head = nodes[:, 1] > zmin + 0.8 * height
     foot = nodes[:, 1] < zmin + 0.2 * height
+    head = nodes[:, 1] > zmin + 0.8 * height
+    foot_dominated = amp[foot].sum() > 0.5 * amp.sum()
+    if family == "symmetric":
+        return "foot flapping" if foot_dominated else "cross-section (sym.)"
+    if family == "full" and foot_dominated:  # no symmetry split: test both kinds
+        return "foot flapping"
+    uy = u[guide.node_dofs[:, 1]]
     if head.any() and foot.any():
         # head and foot lateral motion in opposite directions: the web bends
         if np.real(np.mean(uy[head]) * np.conj(np.mean(uy[foot]))) < 0:
             return "web bending"
-    return "cross-section (antisym.)"
+    return "cross-section (antisym.)" if family == "antisymmetric" else "cross-section"
 
 
 def label_waves(guide, ops, waves) -> list[str]:

@@ -22,10 +22,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .waveguide import FAMILIES, Waveguide
+from .waveguide import Waveguide, check_resolution
 from .waves import FamilyOperators, frozen_tail, join, waves_at
 
 log = logging.getLogger(__name__)
+
+#: Default length (m) over which a force is spread along the rail: a load on a single
+#: cross-section of a continuum is singular (its point mobility grows under mesh refinement);
+#: spread over 20 mm (a wheel contact or hammer tip is 10-20 mm long) the head point mobility
+#: converges with the mesh (tests/test_mobility.py). The CLI uses the same default.
+DEFAULT_LOAD_LENGTH = 0.02
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -52,15 +58,41 @@ def _boundary_edges(guide: Waveguide) -> np.ndarray:
     return edges[np.isin(edges[:, 2], guide.node_sets["boundary"])]
 
 
-def _p2_edge_integrals(t0: np.ndarray, t1: np.ndarray) -> np.ndarray:
-    """int_t0^t1 (N_a, N_b, N_m) dt, (n, 3), for the P2 edge shape functions on t in [0, 1]:
-    N_a = (1 - t)(1 - 2t), N_b = t (2t - 1), N_m = 4 t (1 - t) (1/6, 1/6, 2/3 over [0, 1])."""
+_GAUSS2 = (0.5 - 0.5 / np.sqrt(3.0), 0.5 + 0.5 / np.sqrt(3.0))
 
-    def primitive(t):
-        return np.stack([t - 1.5 * t**2 + 2 * t**3 / 3, -t**2 / 2 + 2 * t**3 / 3,
-                         2 * t**2 - 4 * t**3 / 3], axis=-1)
 
-    return primitive(t1) - primitive(t0)
+def _p2_shapes(t) -> np.ndarray:
+    """P2 edge shape functions (N_a, N_b, N_m) at t in [0, 1]: (1-t)(1-2t), t(2t-1), 4t(1-t)."""
+    t = np.asarray(t, dtype=float)
+    return np.stack([(1 - t) * (1 - 2 * t), t * (2 * t - 1), 4 * t * (1 - t)], axis=-1)
+
+
+def _edge_patch_loads(y: np.ndarray, lo: float, hi: float) -> np.ndarray:
+    """int N_i(t) |y'(t)| dt over the part of a P2 edge whose y lies in [lo, hi]: the
+    consistent nodal loads (N_a, N_b, N_m) of a unit traction per unit lateral width.
+
+    y = (y_a, y_b, y_m) are the edge's node coordinates; y(t) = sum y_i N_i(t) is quadratic
+    on a curved edge. The edge is cut where y(t) crosses lo or hi and where y'(t) = 0, so
+    |y'| is linear on each piece and 2-point Gauss integrates N_i |y'| (cubic) exactly."""
+    ya, yb, ym = y
+    c1, c2 = -3 * ya - yb + 4 * ym, 2 * ya + 2 * yb - 4 * ym
+    cuts = [0.0, 1.0]
+    if c2 != 0:
+        cuts.append(-c1 / (2 * c2))
+    for level in (lo, hi):
+        roots = np.roots([c2, c1, ya - level]) if c2 != 0 else (
+            [(level - ya) / c1] if c1 != 0 else [])
+        cuts += [r.real for r in np.atleast_1d(roots) if abs(np.imag(r)) < 1e-12]
+    t = np.unique(np.clip(cuts, 0.0, 1.0))
+    out = np.zeros(3)
+    for s0, s1 in zip(t[:-1], t[1:]):
+        mid = 0.5 * (s0 + s1)
+        if not lo <= ya + c1 * mid + c2 * mid * mid <= hi:
+            continue
+        for g in _GAUSS2:
+            tg = s0 + g * (s1 - s0)
+            out += 0.5 * (s1 - s0) * _p2_shapes(tg) * abs(c1 + 2 * c2 * tg)
+    return out
 
 
 def surface_patch(guide: Waveguide, centre: tuple[float, float], width: float,
@@ -68,10 +100,10 @@ def surface_patch(guide: Waveguide, centre: tuple[float, float], width: float,
     """Uniform traction (per unit lateral width) over the boundary within `width` (m,
     measured along y) of `centre`; consistent P2 nodal loads, normalised to a unit resultant.
 
-    An edge only partly inside [yc - w/2, yc + w/2] gets the exact integrals of its shape
-    functions over the covered part (lumping its share as if the whole edge were loaded
-    makes the patch, and the point mobility, jump with the mesh). width = 0 gives the
-    nearest node."""
+    The boundary edges are the P2 edges of the mesh, curved on a curved mesh: each edge gets
+    the exact integrals of its shape functions times |dy/dt| over the part of it whose y is
+    covered (lumping an edge's share as if the whole edge were loaded makes the patch, and
+    the point mobility, jump with the mesh). width = 0 gives the nearest node."""
     from .conventions import DIRECTIONS
 
     if width < 0 or not np.isfinite(width):
@@ -83,24 +115,17 @@ def surface_patch(guide: Waveguide, centre: tuple[float, float], width: float,
         n0 = b[np.argmin(np.hypot(nodes[b, 0] - centre[0], nodes[b, 1] - centre[1]))]
         return point(guide, int(n0), direction, label)
     ed = _boundary_edges(guide)
-    p0, p1 = nodes[ed[:, 0]], nodes[ed[:, 1]]
     mid = nodes[ed[:, 2]]
-    near = np.hypot(mid[:, 0] - centre[0], mid[:, 1] - centre[1]) < max(width, 2 * guide.mesh.h)
-    # covered part [t0, t1] of each straight edge y(t) = y0 + t (y1 - y0), t in [0, 1]
-    dy = p1[:, 0] - p0[:, 0]
-    near &= np.abs(dy) > 0
-    safe = np.where(near, dy, 1.0)
-    ta = (centre[0] - width / 2 - p0[:, 0]) / safe
-    tb = (centre[0] + width / 2 - p0[:, 0]) / safe
-    t0 = np.clip(np.minimum(ta, tb), 0.0, 1.0)
-    t1 = np.clip(np.maximum(ta, tb), 0.0, 1.0)
-    near &= t1 > t0
-    if not near.any():
+    near = np.nonzero(np.hypot(mid[:, 0] - centre[0], mid[:, 1] - centre[1])
+                      < max(width, 2 * guide.mesh.h))[0]
+    lo, hi = centre[0] - width / 2, centre[0] + width / 2
+    loads = np.array([_edge_patch_loads(nodes[ed[i], 0], lo, hi) for i in near]).reshape(-1, 3)
+    keep = loads.sum(axis=1) > 0
+    if not keep.any():
         raise ValueError(f"no boundary of the section lies within {width} m of {centre}; "
                          "choose a centre on the surface or a wider patch")
-    loads = _p2_edge_integrals(t0[near], t1[near]) * np.abs(dy[near])[:, None]
     w = np.zeros(guide.n_dofs)
-    np.add.at(w, guide.node_dofs[ed[near], c].ravel(), loads.ravel())
+    np.add.at(w, guide.node_dofs[ed[near[keep]], c].ravel(), loads[keep].ravel())
     return Location(label=label or f"patch{width * 1e3:g}mm_{direction}", weights=w / w.sum())
 
 
@@ -183,13 +208,15 @@ class FamilyResponse:
 
 
 def free_receptance(guide: Waveguide, frequency, force: list[Location], response: list[Location],
-                    x, *, load_length: float = 0.0, response_length: float = 0.0,
+                    x, *, load_length: float = DEFAULT_LOAD_LENGTH, response_length: float = 0.0,
                     method: str = "shift-invert", n_waves: int = 40, tail: bool = True,
                     progress=None) -> np.ndarray:
     """Receptance (m/N) of the free rail: array (nf, n_response, n_x, n_force).
 
     force and response are Locations; x (m) are response positions relative to the load
-    centre (either sign); load_length (m) spreads each force uniformly along the rail and
+    centre (either sign); load_length (m, default DEFAULT_LOAD_LENGTH = 20 mm, the length
+    at which the head point mobility has converged with the mesh; 0 only when asked for:
+    a load on one cross-section of a continuum) spreads each force uniformly along the rail and
     response_length (m) averages each response over a length centred on its position (the
     work-conjugate of a spread load: a point mobility with both equal converges fastest in
     the number of waves kept).
@@ -208,12 +235,13 @@ def free_receptance(guide: Waveguide, frequency, force: list[Location], response
     x = np.atleast_1d(np.asarray(x, dtype=float))
     if not np.all(np.isfinite(x)):
         raise ValueError("response positions x must be finite (m)")
+    check_resolution(guide, f.max())
     for name, val in (("load_length", load_length), ("response_length", response_length)):
         if not np.isfinite(val) or val < 0:
             raise ValueError(f"{name} must be a finite length >= 0 m, got {val!r}")
     Fw = np.column_stack([loc.weights for loc in force])
     Rw = np.column_stack([loc.weights for loc in response])
-    fams = [fr for fr in (FamilyResponse(guide, fam, Fw, Rw) for fam in FAMILIES) if fr.active]
+    fams = [fr for fr in (FamilyResponse(guide, fam, Fw, Rw) for fam in guide.families) if fr.active]
     out = np.zeros((len(f), len(response), len(x), len(force)), dtype=complex)
     tails = {fr.ops.family: frozen_tail(fr.ops, 2 * np.pi * f.min(), n_waves)
              for fr in fams if tail and method == "shift-invert"}

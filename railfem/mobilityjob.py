@@ -57,7 +57,8 @@ def run_free_mobility(profile, h: float, out_dir, *, frequencies=None, force: st
                       responses=("head", "foot_sensor"), x=DEFAULT_MOBILITY_X,
                       patch_width: float = 0.02, load_length: float = 0.02,
                       eta: float = 0.01, mesh_file=None, method: str = "shift-invert",
-                      n_waves: int = 40, progress=None) -> dict:
+                      n_waves: int = 40, mesh_units: str | None = None,
+                      mesh_axes: str = "xy", progress=None) -> dict:
     """Free-rail point and transfer mobilities of ``profile`` meshed at ``h`` (m).
 
     frequencies: Hz (default: exact one-third-octave centres 50 Hz - 8 kHz). force and
@@ -85,7 +86,7 @@ def run_free_mobility(profile, h: float, out_dir, *, frequencies=None, force: st
         responses = (responses,)
     out = prepare_output_dir(out_dir, "mobility")
     material = Material.steel(eta)
-    mesh = load_or_mesh(profile, h, mesh_file)
+    mesh = load_or_mesh(profile, h, mesh_file, mesh_units=mesh_units, mesh_axes=mesh_axes)
     guide = waveguide.assemble(mesh, material)
     load = location_from_spec(guide, force, patch_width)
     resp = [location_from_spec(guide, r, patch_width) for r in responses]
@@ -110,7 +111,8 @@ def run_free_mobility(profile, h: float, out_dir, *, frequencies=None, force: st
     meta = {
         "command": "mobility",
         "profile": mesh.profile.name, "profile_source": mesh.profile.source, "mesh": mesh.name,
-        "h_m": mesh.h, "n_dofs": guide.n_dofs,
+        "mesh_source": mesh.source, "mesh_origin_m": list(mesh.origin), "curved": mesh.curved,
+        "h_m": mesh.h, "n_dofs": guide.n_dofs, "families": list(guide.families),
         "material": {"E": material.E, "nu": material.nu, "rho": material.rho,
                      "loss_factor": eta},
         "force": load.label, "responses": [r.label for r in resp],

@@ -1,8 +1,11 @@
 """Rail cross-section outlines, their named points and polygon section properties.
 
 A profile is a closed counter-clockwise polygon in the (y, z) plane, metres, y lateral with
-the mirror axis at y = 0, z vertical with z = 0 at the underside of the foot. Nothing here
-assumes UIC60: any outline (54E1, a rectangle) goes through the same path.
+the (possible) mirror axis at y = 0, z vertical with z = 0 at the underside of the foot.
+Nothing here assumes UIC60: any outline (54E1, a rectangle, a worn or asymmetric rail) goes
+through the same path. Whether the outline is mirror-symmetric is measured
+(:func:`mirror_deviation`), not assumed: :mod:`railfem.meshing` mirrors a half mesh only for
+a symmetric outline and meshes an asymmetric one whole.
 """
 from __future__ import annotations
 
@@ -21,6 +24,16 @@ EN13674_60E1 = {"area": 76.70e-4, "centroid_z": 80.9e-3, "I_y": 3038.3e-8, "I_z"
 # Accelerometer on the upper surface of the foot, off the centreline, as a fraction of the
 # foot half-width (32.8 mm of 75 mm in the shared reference simulation of 60E1).
 FOOT_SENSOR_FRACTION = 32.8 / 75.0
+
+#: An outline is mirror-symmetric when every vertex mirrored about y = 0 lies within this
+#: fraction of the section size (larger of height and width) of the outline. The packaged
+#: 60E1 outline is symmetric to 16 um (0.9e-4 of its 172 mm height: digitising round-off);
+#: a deliberate asymmetry of a tenth of a millimetre is six times the tolerance.
+SYMMETRY_TOL = 2e-4
+
+#: Smallest plausible section height (m): an outline below it was almost certainly given in
+#: metres where millimetres were expected (a 172 mm rail read as 0.172 mm).
+MIN_HEIGHT = 1e-3
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -50,14 +63,38 @@ class RailProfile:
         if _signed_area(pts) <= 0:
             pts = pts[::-1]
         object.__setattr__(self, "outline", pts)
-        if pts[:, 1].max() - pts[:, 1].min() > 1.0:
+        height = np.ptp(pts[:, 1])
+        if height > 1.0:
             raise ValueError(
-                f"profile {self.name!r}: outline is {np.ptp(pts[:, 1]):.3g} units high; "
+                f"profile {self.name!r}: outline is {height:.3g} units high; "
                 "coordinates must be in metres (use load_outline_csv(..., unit='mm'))")
+        if height < MIN_HEIGHT:
+            raise ValueError(
+                f"profile {self.name!r}: outline is only {height * 1e3:.3g} mm high; it looks "
+                "like coordinates in metres read as millimetres (use "
+                "load_outline_csv(..., unit='m'), or give the file in mm)")
+        crossing = self_intersection(pts)
+        if crossing is not None:
+            i, j = crossing
+            raise ValueError(
+                f"profile {self.name!r}: the outline crosses itself (edge {i}-{i + 1} "
+                f"crosses edge {j}-{(j + 1) % len(pts)}, near y = {pts[i, 0]:.4g} m, "
+                f"z = {pts[i, 1]:.4g} m); give a simple closed outline, points in order "
+                "around the section")
         if pts[:, 0].min() >= 0 or pts[:, 0].max() <= 0:
             raise ValueError(
                 f"profile {self.name!r}: the outline must straddle the mirror axis y = 0 "
                 f"(y range {pts[:, 0].min():.4g} .. {pts[:, 0].max():.4g} m); shift it laterally")
+
+    @property
+    def size(self) -> float:
+        """The larger of height and width (m): the scale of the symmetry tolerance."""
+        return float(np.ptp(self.outline, axis=0).max())
+
+    @property
+    def symmetric(self) -> bool:
+        """Mirror-symmetric about y = 0 within SYMMETRY_TOL of its size."""
+        return mirror_deviation(self.outline) <= SYMMETRY_TOL * self.size
 
     @property
     def height(self) -> float:
@@ -87,6 +124,52 @@ class SectionProperties:
 def _signed_area(p: np.ndarray) -> float:
     y, z = p[:, 0], p[:, 1]
     return 0.5 * float(np.sum(y * np.roll(z, -1) - np.roll(y, -1) * z))
+
+
+def _segment_distance(points: np.ndarray, poly: np.ndarray) -> np.ndarray:
+    """Distance of each point to the closed polygon (nearest edge)."""
+    a, b = poly, np.roll(poly, -1, axis=0)
+    d = b - a
+    out = np.empty(len(points))
+    for s in range(0, len(points), 256):  # chunks keep the (n, m) temporaries small
+        p = points[s:s + 256, None, :]
+        t = np.clip(((p - a) * d).sum(-1) / np.maximum((d * d).sum(-1), 1e-300), 0.0, 1.0)
+        out[s:s + 256] = np.linalg.norm(p - (a + t[..., None] * d), axis=-1).min(axis=1)
+    return out
+
+
+def mirror_deviation(outline: np.ndarray) -> float:
+    """Largest distance (m) from a vertex mirrored about y = 0 to the outline: 0 for an
+    exactly mirror-symmetric polygon (the mirror of every vertex lies on the outline)."""
+    pts = np.asarray(outline, dtype=float)
+    return float(_segment_distance(pts * [-1.0, 1.0], pts).max())
+
+
+def self_intersection(outline: np.ndarray):
+    """(i, j) of the first pair of non-adjacent edges that touch or cross, or None.
+
+    Edge i runs from vertex i to vertex i + 1 (the last closes the polygon)."""
+    p = np.asarray(outline, dtype=float)
+    n = len(p)
+    a, b = p, np.roll(p, -1, axis=0)
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
+
+    def orient(p0, p1, q):
+        return np.sign((p1[..., 0] - p0[..., 0]) * (q[..., 1] - p0[..., 1])
+                       - (p1[..., 1] - p0[..., 1]) * (q[..., 0] - p0[..., 0]))
+
+    for i in range(n - 2):
+        j = np.arange(i + 2, n if i > 0 else n - 1)  # skip the two neighbours of edge i
+        box = np.all((lo[j] <= hi[i]) & (hi[j] >= lo[i]), axis=1)
+        j = j[box]
+        if not len(j):
+            continue
+        o1, o2 = orient(a[i], b[i], a[j]), orient(a[i], b[i], b[j])
+        o3, o4 = orient(a[j], b[j], a[i]), orient(a[j], b[j], b[i])
+        hit = (o1 * o2 <= 0) & (o3 * o4 <= 0)
+        if hit.any():
+            return i, int(j[np.argmax(hit)])
+    return None
 
 
 def polygon_properties(outline: np.ndarray) -> SectionProperties:
@@ -155,10 +238,22 @@ def get_profile(name_or_path: str) -> RailProfile:
     if key.upper() in ("60E1", "UIC60"):
         return uic60()
     if key.lower().startswith("rect:"):
-        w, h = (float(v) * 1e-3 for v in key[5:].lower().split("x"))
+        try:
+            w, h = (float(v) * 1e-3 for v in key[5:].lower().split("x"))
+        except ValueError:
+            raise ValueError(
+                f"profile {key!r}: a rectangle is 'rect:WIDTHxHEIGHT' with two numbers in mm, "
+                "e.g. 'rect:20x50'") from None
+        if not (np.isfinite(w) and np.isfinite(h) and w > 0 and h > 0):
+            raise ValueError(f"profile {key!r}: rectangle width and height must be positive "
+                             "finite numbers in mm, e.g. 'rect:20x50'")
         return rectangle(w, h)
     if Path(key).exists():
         return load_outline_csv(key)
+    if Path(key).suffix or any(sep in key for sep in ("/", "\\")):
+        raise FileNotFoundError(
+            f"profile file not found: {key} (an outline CSV, y,z in mm; or use '60E1' or "
+            "'rect:WIDTHxHEIGHT')")
     raise ValueError(
         f"unknown profile {key!r}: use '60E1', 'rect:WIDTHxHEIGHT' in mm, or the path of an "
         "outline CSV (y,z in mm)")

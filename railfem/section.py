@@ -1,6 +1,8 @@
 """Beam section constants computed on the section mesh (independent of the waveguide).
 
-* area, centroid and second moments: exact on the straight-sided triangles;
+* area, centroid and second moments: Gauss quadrature of order 6 on the elements, exact on
+  straight-sided and on curved (quadratic-geometry) 6-node triangles alike (x^2 det J is a
+  polynomial of degree 6 on the reference triangle);
 * St-Venant torsion constant J from the Prandtl stress function: -lap(Phi) = 2 in the
   section, Phi = 0 on its boundary, J = 2 int Phi dA (Timoshenko & Goodier, Theory of
   Elasticity, 3rd ed., section 104);
@@ -15,6 +17,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 
+from . import meshing
 from .meshing import SectionMesh
 
 
@@ -38,27 +41,21 @@ class SectionConstants:
 
 
 def moments(mesh: SectionMesh) -> tuple[float, float, float, float]:
-    """(area, centroid_z, I_y, I_z) of the triangulated section, exact for straight sides."""
-    v = mesh.vertices[mesh.triangles]  # (nt, 3, 2)
-    a, b, c = v[:, 0], v[:, 1], v[:, 2]
-    area_t = 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
-                    - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
-    A = area_t.sum()
-    cy = (area_t * v[:, :, 0].mean(1)).sum() / A
-    cz = (area_t * v[:, :, 1].mean(1)).sum() / A
+    """(area, centroid_z, I_y, I_z) of the meshed section (curved or straight elements)."""
+    from skfem import Basis, ElementTriP1
 
-    def second(q):  # exact int q^2 over a triangle: A/6 (q1^2+q2^2+q3^2+q1q2+q2q3+q3q1)
-        s = q[:, 0] ** 2 + q[:, 1] ** 2 + q[:, 2] ** 2 + q[:, 0] * q[:, 1] \
-            + q[:, 1] * q[:, 2] + q[:, 2] * q[:, 0]
-        return (area_t * s / 6).sum()
-
-    return A, cz, second(v[:, :, 1] - cz), second(v[:, :, 0] - cy)
+    basis = Basis(meshing.skfem_mesh(mesh), ElementTriP1(), intorder=6)
+    x = basis.mapping.F(basis.X)  # (2, nt, nq) quadrature points
+    dx = basis.dx  # (nt, nq) weights times |det J|
+    A = float(dx.sum())
+    cy, cz = (float((x[i] * dx).sum() / A) for i in (0, 1))
+    return (A, cz, float(((x[1] - cz) ** 2 * dx).sum()), float(((x[0] - cy) ** 2 * dx).sum()))
 
 
 def _basis(mesh: SectionMesh):
-    from skfem import Basis, ElementTriP2, MeshTri
+    from skfem import Basis, ElementTriP2
 
-    m = MeshTri(mesh.vertices.T.copy(), mesh.triangles.T.copy())
+    m = meshing.skfem_mesh(mesh)
     return m, Basis(m, ElementTriP2())
 
 
@@ -99,3 +96,20 @@ def section_constants(mesh: SectionMesh) -> SectionConstants:
     return SectionConstants(area=A, centroid_z=cz, I_y=Iy, I_z=Iz, J=torsion_constant(mesh),
                             kappa_z=shear_coefficient(mesh, "z"),
                             kappa_y=shear_coefficient(mesh, "y"))
+
+
+def beam_section_from_mesh(mesh: SectionMesh, material=None, direction: str = "vertical"):
+    """Timoshenko ``BeamSection`` with the constants of the mesh: area, I and kappa of
+    vertical (I_y, kappa_z) or lateral (I_z, kappa_y) bending; material (default steel) gives
+    E, G, rho and the loss factor. The catalogue counterpart is
+    ``railfem.beams.catalogue_section``."""
+    from .beams import BeamSection
+    from .materials import Material
+
+    if direction not in ("vertical", "lateral"):
+        raise ValueError(f"direction must be 'vertical' or 'lateral', got {direction!r}")
+    A, _, Iy, Iz = moments(mesh)
+    vertical = direction == "vertical"
+    return BeamSection.from_material(material or Material.steel(), area=A,
+                                     I=Iy if vertical else Iz,
+                                     kappa=shear_coefficient(mesh, "z" if vertical else "y"))

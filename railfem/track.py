@@ -42,7 +42,7 @@ from .coupling import (DiscreteKernel, PeriodicKernel, couple_discrete, couple_p
                        theta_mean, unique_separations)
 from .mobility import FamilyResponse, Location, _kernels, combine, residue_sum, wave_sum
 from .supports import SupportLayout, dynamic_stiffness, foot_spring_weights
-from .waveguide import FAMILIES, Waveguide
+from .waveguide import Waveguide
 from .waves import FamilyOperators, frozen_tail, join, waves_at
 
 log = logging.getLogger(__name__)
@@ -100,6 +100,9 @@ def foot_springs(guide: Waveguide, n_f: int = DEFAULT_N_FOOT_SPRINGS) -> FootSpr
 
 
 def _check_symmetric(guide: Waveguide, locs) -> None:
+    if set(guide.families) != {"symmetric", "antisymmetric"}:
+        raise ValueError(f"the supported-track models need a mirror-symmetric section mesh; "
+                         f"{guide.mesh.name} is not (one wave family {list(guide.families)})")
     T = guide.families["antisymmetric"].T
     for loc in locs:
         if np.abs(T.T @ loc.weights).max() > 1e-12 * np.abs(loc.weights).max():
@@ -156,7 +159,7 @@ def _projection_sweep(guide: Waveguide, W: np.ndarray, f: np.ndarray, n_waves: i
     on it: a family no force excites adds nothing (e.g. the antisymmetric part of an
     off-centre vertical sensor under vertical loads and spring pairs)."""
     fams = []
-    for fam in FAMILIES:
+    for fam in guide.families:
         Wr = np.asarray(guide.families[fam].T.T @ W)
         if not np.any(Wr[:, forces] != 0):
             continue

@@ -28,7 +28,7 @@ import scipy.linalg as sl
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
-from .waveguide import FAMILIES, Waveguide, reduced
+from .waveguide import Waveguide, reduced
 
 log = logging.getLogger(__name__)
 
@@ -200,15 +200,16 @@ class Dispersion:
     label: np.ndarray
 
 
-def solve(guide: Waveguide, frequency, *, families=FAMILIES, method: str = "shift-invert",
+def solve(guide: Waveguide, frequency, *, families=None, method: str = "shift-invert",
           n_waves: int = 40, progress=None) -> Dispersion:
-    """k(omega) of all requested families at each frequency (Hz), with wave-type labels."""
+    """k(omega) of the requested families (default: all of the guide's) at each frequency
+    (Hz), with wave-type labels."""
     from .labels import label_waves
 
     f = np.atleast_1d(np.asarray(frequency, dtype=float))
     if np.any(~np.isfinite(f)) or np.any(f <= 0):
         raise ValueError(f"frequencies must be positive and finite (Hz), got {f[~(f > 0)][:3]}")
-    ops = [FamilyOperators(guide, fam) for fam in families]
+    ops = [FamilyOperators(guide, fam) for fam in (families or guide.families)]
     rows = []
     for i, fi in enumerate(f):
         ks, fams, labs = [], [], []
@@ -241,7 +242,7 @@ def real_k_mode_matrices(guide: Waveguide, family: str, k: float):
     return K, ops.M.tocsc(), ops
 
 
-def omega_of_k(guide: Waveguide, k, *, n_modes: int = 10, families=FAMILIES):
+def omega_of_k(guide: Waveguide, k, *, n_modes: int = 10, families=None):
     """Undamped natural frequencies (Hz) of each family at each real wavenumber k (rad/m).
 
     Returns a dict family -> (nk, n_modes) array, ascending, and the (nk, n_modes) labels.
@@ -250,7 +251,7 @@ def omega_of_k(guide: Waveguide, k, *, n_modes: int = 10, families=FAMILIES):
 
     k = np.atleast_1d(np.asarray(k, dtype=float))
     out = {}
-    for fam in families:
+    for fam in families or guide.families:
         freqs = np.empty((len(k), n_modes))
         labels = np.empty((len(k), n_modes), dtype=object)
         for i, kk in enumerate(k):
@@ -268,13 +269,14 @@ def omega_of_k(guide: Waveguide, k, *, n_modes: int = 10, families=FAMILIES):
 def cut_on_frequencies(guide: Waveguide, n: int = 6, family: str | None = None) -> np.ndarray:
     """Cut-on frequencies (Hz) of cross-section modes: the non-zero eigenfrequencies at k = 0.
 
-    At k = 0 the problem splits into in-plane (K0_pp, M_pp) and axial (K0_aa, M_aa) parts;
-    the zero-frequency rigid motions (translations, rotation) are dropped.
+    At k = 0 the problem is K0 phi = omega^2 M phi (in-plane and axial DOFs uncoupled);
+    the zero-frequency rigid motions (translations, rotation) are dropped. Families: all of
+    the guide's, or the one named.
     """
-    fams = FAMILIES if family is None else (family,)
+    fams = tuple(guide.families) if family is None else (family,)
     vals = []
     for fam in fams:
-        K, M, _ = real_k_mode_matrices(guide, fam, 0.0)
+        K, _, _, M = (X.tocsc() for X in reduced(guide, fam))
         w2 = spl.eigsh(K, k=n + 4, M=M, sigma=-(2 * np.pi * 100.0) ** 2, which="LM",
                        return_eigenvectors=False)
         f = np.sqrt(np.clip(np.sort(w2), 0, None)) / (2 * np.pi)

@@ -123,7 +123,7 @@ def test_convergence_study_and_command(tmp_path):
     assert cli.main(["-q", "convergence", "--profile", "rect:20x50", "--sizes", "10", "5",
                      "--n-cut-on", "2", "--reference", "finest", "--out", str(out)]) == 0
     rows = read_csv(out / "convergence.csv")
-    assert [r["h_mm"] for r in rows] == ["10", "5", "reference", "rate"]
+    assert [r["h_mm"] for r in rows] == ["10", "5", "reference", "rate", "richardson_order"]
     assert (out / "convergence.png").exists()
     data = json.loads((out / "convergence.json").read_text())
     assert data["reference"]["cut_on"] == "finest"
