@@ -18,7 +18,7 @@ import numpy as np
 
 from railfem import contact
 from railfem.passbyjob import run_passby
-from railfem.recording import read_recording
+from railfem.io.recording import read_recording
 
 
 def main(out: Path) -> dict:

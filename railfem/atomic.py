@@ -15,9 +15,12 @@ from __future__ import annotations
 import contextlib
 import json
 import logging
+import math
 import os
 import re
 from pathlib import Path
+
+import numpy as np
 
 log = logging.getLogger(__name__)
 
@@ -84,6 +87,22 @@ def write_atomic(path, write, *, binary: bool = False) -> Path:
 # the names the job layer has always used
 write_text_atomic = write_text
 write_bytes_atomic = write_bytes
+
+
+def json_safe(obj):
+    """A strict-JSON copy of nested dicts/lists/tuples/arrays: NaN and inf -> None, numpy
+    scalars and arrays -> Python numbers and lists, dict keys -> str."""
+    if isinstance(obj, dict):
+        return {str(k): json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple, np.ndarray)):
+        return [json_safe(v) for v in obj]
+    if isinstance(obj, (bool, np.bool_)):
+        return bool(obj)
+    if isinstance(obj, (float, np.floating)):
+        return float(obj) if math.isfinite(obj) else None
+    if isinstance(obj, np.integer):
+        return int(obj)
+    return obj
 
 
 def _alive(pid: int) -> bool:

@@ -8,6 +8,8 @@
     railfem mobility --free --freq 50:8000:60 --response head foot_sensor --x 0 0.3 --out DIR
     railfem passby --preset site --speed-kmh 216 --wheel flexible --signal --out DIR
     railfem tdr passby run1.npz run2.wav --out DIR          pass-by decay rates
+    railfem roughness run1.wav --track site --method full --out DIR
+    railfem study passby --out DIR                          TDR and roughness error study
 
 Lengths on the command line are in mm (element sizes), frequencies in Hz, wavenumbers in
 rad/m. Each subcommand parses its arguments and calls one function of
@@ -570,6 +572,95 @@ def _tdr_passby_run(args) -> int:
     return 0
 
 
+# ------------------------------------------------------------------- roughness
+def _roughness_args(p: argparse.ArgumentParser) -> None:
+    from .roughnessjob import A_TERMS, METHODS
+    from .spec import MODELS
+
+    p.add_argument("recordings", nargs="+", type=Path, metavar="RECORDING",
+                   help="pass-by recordings (.npz/.wav + .toml/.json metadata)")
+    p.add_argument("--track", required=True, metavar="SPEC",
+                   help="preset name, TOML track spec, 'railfem track' run.json or "
+                        "'railfem fit' fit.json")
+    p.add_argument("--model", choices=MODELS, default=None, help="override the track model")
+    p.add_argument("--method", choices=METHODS, default="full", help="default full")
+    p.add_argument("--tdr", default=None, metavar="SOURCE",
+                   help="decay rate for the simplified method: energy, slope, model, "
+                        "hammer:DATA or a decay-rate table file")
+    p.add_argument("--a-terms", choices=A_TERMS, default="model",
+                   help="A1, A2 of the simplified method from the track model (default) or "
+                        "the original defaults (A1 = 0, continuous track, flexible wheel)")
+    p.add_argument("--channel", default=None, metavar="NAME",
+                   help="channel of multi-channel recordings")
+    p.add_argument("--wheel", default="rigid", help="rigid (default), flexible or an FRF CSV")
+    p.add_argument("--contact-filter", default="analytical",
+                   help="analytical (default), numerical or none")
+    p.add_argument("--speed", type=_positive, default=None, metavar="M/S",
+                   help="train speed in m/s (overrides the metadata)")
+    p.add_argument("--wheel-snr", type=_positive, default=None, metavar="DB",
+                   help="wheel detector threshold above the record's median, dB (default "
+                        "20; 12 for long trains in short records)")
+    p.add_argument("--f-low", type=_positive, default=100.0, help="lowest band (Hz)")
+    p.add_argument("--f-high", type=_positive, default=5000.0, help="highest band (Hz)")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/roughness"),
+                   metavar="DIR", help="output folder (default railfem-output/roughness)")
+
+
+def _roughness_run(args) -> int:
+    from .roughnessjob import run_roughness
+
+    s = run_roughness(args.recordings, args.out, track=args.track, method=args.method,
+                      tdr=args.tdr, a_terms=args.a_terms, model=args.model,
+                      channel=args.channel, f_low=args.f_low, f_high=args.f_high,
+                      wheel=args.wheel, contact_filter=args.contact_filter, speed=args.speed,
+                      detect=None if args.wheel_snr is None else {"snr_db": args.wheel_snr})
+    sys.stdout.write(f"{s['method']} method on {len(s['recordings'])} recording(s), "
+                     f"{s['runtime_s']:.1f} s\n")
+    for v in s["files"].values():
+        sys.stdout.write(f"wrote {v}\n")
+    return 0
+
+
+# ----------------------------------------------------------------------- studies
+def _study_args(p: argparse.ArgumentParser) -> None:
+    from .spec import MODELS
+
+    sub = p.add_subparsers(dest="study", metavar="STUDY", required=True)
+    s = sub.add_parser("passby", help="error study of the pass-by TDR estimators and the "
+                       "roughness methods on simulated pass-bys (docs/roughness.md)")
+    s.add_argument("--model", choices=MODELS, default="wfe-discrete")
+    s.add_argument("--tracks", nargs="+", default=None, metavar="PRESET",
+                   help="presets (default: stiff medium soft very_soft site)")
+    s.add_argument("--speeds-kmh", type=_positive, nargs="+", default=None, metavar="KMH",
+                   help="one speed per pass-by (default 212 214 216 218)")
+    s.add_argument("--noise-fraction", type=_non_negative, default=0.1)
+    s.add_argument("--position-error", type=_non_negative, default=0.1, metavar="M")
+    s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--workers", type=_count, default=2)
+    s.add_argument("--sbb", type=Path, default=None, metavar="CSV",
+                   help="SBB rail roughness table to plot (default ../shared/... if there)")
+    s.add_argument("--out", type=Path, default=Path("railfem-output/study-passby"),
+                   metavar="DIR")
+    s.set_defaults(_run=_study_run)
+
+
+def _study_run(args) -> int:
+    from .studyjob import SPEEDS_KMH, STUDY_TRACKS, run_passby_study
+
+    s = run_passby_study(args.out, model=args.model, tracks=args.tracks or STUDY_TRACKS,
+                         speeds_kmh=args.speeds_kmh or SPEEDS_KMH,
+                         noise_fraction=args.noise_fraction,
+                         position_error=args.position_error, seed=args.seed,
+                         workers=args.workers, sbb=args.sbb,
+                         sensitivity_track="site" if "site" in (args.tracks or STUDY_TRACKS)
+                         else None)
+    sys.stdout.write(f"study passby: {len(s['tracks'])} tracks in "
+                     f"{s['timing_s']['total']:.0f} s\n")
+    for v in s["files"].values():
+        sys.stdout.write(f"wrote {v}\n")
+    return 0
+
+
 #: name -> (add_arguments(parser), run(args) -> exit code, help)
 # ------------------------------------------------------------ decay rate from data
 def _tdr_args(p: argparse.ArgumentParser) -> None:
@@ -743,6 +834,9 @@ COMMANDS = {
     "tdr": (_tdr_args, _tdr_run, "track decay rate from measured or simulated data"),
     "passby": (_passby_args, _passby_run,
                "train pass-by: rail vibration from roughness, band levels, time signal"),
+    "roughness": (_roughness_args, _roughness_run,
+                  "combined wheel-rail roughness from pass-by recordings (full, simplified)"),
+    "study": (_study_args, _study_run, "error studies on simulated data"),
     "fit": (_fit_args, _fit_run, "track parameters fitted to measured data, with uncertainty"),
 }
 

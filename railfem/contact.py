@@ -41,6 +41,7 @@ roughness times ``H(k)``. Three filters are provided:
 """
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass
 
@@ -50,9 +51,14 @@ from scipy import optimize, special
 from .materials import Material
 
 __all__ = ["HertzContact", "hertz", "effective_modulus", "contact_receptance",
-           "analytical_filter", "line_average", "line_filter", "coherence", "numerical_filter", "ANALYTICAL_FILTER_KA_MAX",
+           "analytical_filter", "line_average", "line_filter", "coherence", "numerical_filter",
+           "filter_power", "FILTERS", "ANALYTICAL_FILTER_KA_MAX",
            "DEFAULT_WHEEL_LOAD", "RAIL_HEAD_RADIUS_60E1"]
 
+log = logging.getLogger(__name__)
+
+#: Contact filter kinds of :func:`filter_power`.
+FILTERS = ("analytical", "numerical", "none")
 #: Upper limit of k a for the analytical filter (METHOD.md section 4).
 ANALYTICAL_FILTER_KA_MAX = 6.5
 #: Static wheel load (N): a 16 t axle load (typical passenger coach; see docs/wheels.md).
@@ -230,3 +236,25 @@ def numerical_filter(k, a: float, b: float, *, n_lines: int = 24,
     gw = g * w
     h2 = np.einsum("ki,kij,kj->k", gw, gamma, gw)
     return h2.reshape(k.shape)
+
+
+def filter_power(kind: str, frequency, speed: float, contact: HertzContact) -> np.ndarray:
+    """|H|^2 of the contact filter ``kind`` ('analytical', 'numerical' or 'none') at the
+    narrow-band frequencies (Hz) for train speed V (m/s): k = 2 pi f / V. The analytical
+    filter logs a warning beyond its limit k a = ANALYTICAL_FILTER_KA_MAX."""
+    _positive("speed", speed)
+    f = np.asarray(frequency, dtype=float)
+    k = 2 * np.pi * f / speed
+    if kind == "analytical":
+        ka = k * contact.a
+        if ka.max() > ANALYTICAL_FILTER_KA_MAX:
+            log.warning(
+                "analytical contact filter used up to ka = %.1f, beyond its limit %.1f "
+                "(%.0f Hz at %.1f m/s)", ka.max(), ANALYTICAL_FILTER_KA_MAX,
+                ANALYTICAL_FILTER_KA_MAX / contact.a * speed / (2 * np.pi), speed)
+        return analytical_filter(ka)
+    if kind == "numerical":
+        return numerical_filter(k, contact.a, contact.b)
+    if kind == "none":
+        return np.ones_like(f)
+    raise ValueError(f"contact filter {kind!r}: choose one of {', '.join(FILTERS)}")

@@ -21,7 +21,7 @@ import numpy as np
 
 from . import branches, meshing, section, waveguide, waves
 from .atomic import (  # noqa: F401  (the job layer's names, re-exported)
-    prepare_output_dir, write_bytes_atomic, write_text, write_text_atomic)
+    json_safe, prepare_output_dir, write_bytes_atomic, write_text, write_text_atomic)
 from .materials import Material
 from .profiles import EN13674_60E1, RailProfile, get_profile, polygon_properties
 
@@ -69,19 +69,6 @@ def progress_logger(what: str, *, min_interval: float = 2.0, logger=None):
                         total, 100.0 * done / total, elapsed, eta)
 
     return progress
-
-
-def _json_safe(obj):
-    """Nested lists/dicts with NaN and inf replaced by None (strict JSON)."""
-    if isinstance(obj, dict):
-        return {k: _json_safe(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_json_safe(v) for v in obj]
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if np.isfinite(obj) else None
-    if isinstance(obj, np.integer):
-        return int(obj)
-    return obj
 
 
 def _slug(text: str) -> str:
@@ -512,7 +499,7 @@ def _write_convergence(study, out: Path, suffix: str) -> dict:
             out / f"convergence{suffix}_wavenumbers.png")
 
     def arr(x):
-        return _json_safe(np.asarray(x).tolist())
+        return json_safe(np.asarray(x).tolist())
 
     data = {k: arr(getattr(study, k)) for k in (
         "sizes", "n_dofs", "cut_on", "cut_on_family", "cut_on_rank", "frequencies",

@@ -37,7 +37,7 @@ __all__ = ["run_passby", "read_config", "make_wheel", "roughness_spectrum", "WHE
            "CONTACT_FILTERS", "DEFAULTS"]
 
 WHEEL_MODELS = ("rigid", "flexible")
-CONTACT_FILTERS = ("analytical", "numerical", "none")
+CONTACT_FILTERS = contact.FILTERS
 DEFAULTS = dict(preset="site", model="wfe-discrete", speed_kmh=216.0, train=None,
                 roughness=None, roughness_select=None, roughness_hold=False, wheel="rigid",
                 wheel_mass=None,
@@ -96,22 +96,6 @@ def roughness_spectrum(source, select=None) -> rough.RoughnessSpectrum:
     return rough.read_spectrum_csv(path)
 
 
-def _filter(kind, hz: contact.HertzContact, f, speed):
-    k = 2 * np.pi * f / speed
-    if kind == "analytical":
-        ka = k * hz.a
-        if ka.max() > contact.ANALYTICAL_FILTER_KA_MAX:
-            log.warning("analytical contact filter used up to ka = %.1f, beyond its limit "
-                        "%.1f (%.0f Hz at %.1f m/s)", ka.max(), contact.ANALYTICAL_FILTER_KA_MAX,
-                        contact.ANALYTICAL_FILTER_KA_MAX / hz.a * speed / (2 * np.pi), speed)
-        return contact.analytical_filter(ka)
-    if kind == "numerical":
-        return contact.numerical_filter(k, hz.a, hz.b)
-    if kind == "none":
-        return np.ones_like(f)
-    raise ValueError(f"contact_filter = {kind!r}: choose one of {CONTACT_FILTERS}")
-
-
 def _check(opts):
     if opts["wheel"] not in WHEEL_MODELS and not Path(str(opts["wheel"])).is_file():
         raise ValueError(f"wheel = {opts['wheel']!r}: choose 'rigid', 'flexible' or an FRF "
@@ -164,7 +148,7 @@ def run_passby(out_dir, *, tables: P.RailTables | None = None, cache=None,
                                max_distance=opts["max_distance"], cache=cache,
                                progress=progress_logger("rail tables"))
     t_tables = time.perf_counter()
-    r = amp * np.sqrt(_filter(opts["contact_filter"], hz, f, speed))
+    r = amp * np.sqrt(contact.filter_power(opts["contact_filter"], f, speed, hz))
     aw, ac = wheel.receptance(f), contact.contact_receptance(hz, f)
     common = dict(output=opts["output"], interaction=opts["interaction"],
                   before=opts["before"], after=opts["after"],
@@ -205,9 +189,12 @@ def run_passby(out_dir, *, tables: P.RailTables | None = None, cache=None,
         truth["roughness"] = {"name": spec.name, "wavelength_m": spec.wavelength.tolist(),
                               "level_db_re_1um": spec.level.tolist()}
         truth["track"] = {"preset": tp.name, "model": tables.description}
-        rec_paths = signals.write_passby_recording(
-            out / "passby", sig, truth, spacing=tp.spacing, location=opts["output"],
-            speed_known=opts["speed_known"], data_format=opts["data_format"])
+        from .io.recording import write_recording
+
+        rec = signals.passby_recording(sig, truth, spacing=tp.spacing, location=opts["output"],
+                                       speed_known=opts["speed_known"])
+        rec_paths = write_recording(out / "passby", rec, data_format=opts["data_format"],
+                                    truth=truth)
         paths.update({f"recording_{k}": v for k, v in rec_paths.items()})
     summary["runtime_s"]["total"] = time.perf_counter() - t0
     summary["files"] = {k: str(v) for k, v in paths.items()}

@@ -31,6 +31,7 @@ __all__ = [
     "plot_decay_rate", "plot_decay_rate_results", "mark_cut_ons", "along_rail_frequencies",
     "plot_along_rail", "convergence_slope", "plot_convergence", "plot_band_overlay",
     "plot_band_residual", "plot_passby_levels", "plot_decay_rate_estimates",
+    "plot_roughness", "plot_band_errors",
 ]
 
 _MARKERS = ("o", "s", "^", "v", "D", "<", ">", "p", "h", "*", "X", "P")
@@ -799,6 +800,62 @@ def plot_decay_rate_estimates(centres, estimates: dict, *, ax=None,
     _plain_log_labels(ax.yaxis)
     _band_ticks(ax, centres)
     ax.set_xlabel("One-third-octave band centre frequency (Hz)")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which="both", alpha=0.3)
+    _legend(ax)
+    return ax
+
+
+def plot_roughness(wavelength, levels: dict, *, ax=None, limit: bool = True,
+                   styles: dict | None = None):
+    """Roughness level (dB re 1 um) vs wavelength (cm, long wavelengths on the left) per
+    one-third-octave wavelength band, with the EN ISO 3095:2013 limit curve (Figure 2).
+
+    wavelength: (nb,) m, shared by every curve, or a dict label -> (nb,) m per curve.
+    levels: label -> (nb,) dB (NaN leaves gaps). styles: label -> matplotlib kwargs."""
+    from .standards.iso3095 import roughness_limit
+
+    ax = _axes(ax)
+    for j, (label, lev) in enumerate(levels.items()):
+        lam = wavelength[label] if isinstance(wavelength, dict) else wavelength
+        lam = _vector(lam, f"wavelength of {label!r}")
+        y = _columns(lev, lam.size, f"levels of {label!r}", "wavelengths")[:, 0]
+        kw = {"marker": _MARKERS[j % len(_MARKERS)], "markersize": 4}
+        kw.update((styles or {}).get(label, {}))
+        ax.plot(lam * 100, y, label=str(label), **kw)
+    if limit:
+        lam, lim = roughness_limit()
+        ax.plot(lam * 100, lim, color="k", lw=2, ls="--", label="EN ISO 3095:2013 limit")
+    ax.set_xscale("log")
+    if not ax.xaxis_inverted():
+        ax.invert_xaxis()
+    _plain_log_labels(ax.xaxis)
+    ax.set_xlabel("Wavelength (cm)")
+    ax.set_ylabel("Roughness level (dB re 1 um)")
+    ax.grid(True, which="both", alpha=0.3)
+    _legend(ax)
+    return ax
+
+
+def plot_band_errors(x, errors: dict, *, ax=None, xlabel: str = "Wavelength (cm)",
+                     ylabel: str = "Estimate - truth (dB)", xscale: float = 100.0,
+                     invert: bool = True, band: float | None = 1.0):
+    """Errors per band of several estimates (label -> (nb,)) vs x (m, shown times
+    ``xscale``: cm by default), a zero line and an optional +-band tolerance."""
+    ax = _axes(ax)
+    xv = _vector(x, "x") * xscale
+    for j, (label, e) in enumerate(errors.items()):
+        y = _columns(e, xv.size, f"errors of {label!r}", "x")[:, 0]
+        ax.plot(xv, y, marker=_MARKERS[j % len(_MARKERS)], markersize=4, label=str(label))
+    ax.axhline(0.0, color="k", lw=1)
+    if band:
+        for s in (-band, band):
+            ax.axhline(s, color="0.5", lw=1, ls=":")
+    ax.set_xscale("log")
+    if invert and not ax.xaxis_inverted():
+        ax.invert_xaxis()
+    _plain_log_labels(ax.xaxis)
+    ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.grid(True, which="both", alpha=0.3)
     _legend(ax)

@@ -1,169 +1,193 @@
-"""Recordings: time signals as a measurement system writes them, with a metadata sidecar.
+"""Recordings: time signals as a measurement system records them, with what is known about
+the train. ONE model for field recordings and railfem's simulated ones.
 
-A recording is a data file and a JSON sidecar with the same stem::
+A :class:`Recording` holds the samples of one or more sensors (one column per
+:class:`Channel`, SI units), the sample rate, and what the engineer knows about the train:
+at most the speed, the bogie axle spacing or the full axle layout (a single sensor measures
+times, not lengths, so one of them is needed to get the speed; see
+:func:`railfem.estimators.wheels.train_speed`). Anything else (site, rail, description) is
+free ``metadata``. Nothing here knows where the signal came from: the estimators get what a
+recorder gives. A simulator's truth (roughness, layout, band levels) is never part of a
+Recording; :mod:`railfem.io.recording` writes it to a separate file that its reader never
+opens.
 
-    passby_01.wav   (or .npz)   float32 samples, one column per channel, physical units
-    passby_01.json              format tag, sample rate, channels, speed if known, site
-
-The sidecar holds only what a field team would know: sample rate, per channel the
-quantity, unit, sensor position on the rail (head/foot), direction and position along the
-track relative to the sleepers, the train speed if measured, the sleeper spacing and free
-text. A simulator's truth (roughness, layout, band levels) goes in a separate file that
-readers of recordings never open (railfem.simulate.signals writes ``*.truth.json``).
-
-WAV files are written with scipy.io.wavfile as IEEE float32 in the physical unit (no
-scaling); NPZ files hold ``signal`` (n_samples, n_channels) float32. Both are written
-atomically; :func:`read_recording` accepts the sidecar or the data file.
+The estimators work on one sensor at a time: :meth:`Recording.select` picks a channel,
+:attr:`Recording.trace` and :attr:`Recording.channel` are the samples and the sensor of a
+single-channel recording. Files: :mod:`railfem.io.recording`.
 """
 from __future__ import annotations
 
-import io
-import json
-from dataclasses import dataclass, field
-from pathlib import Path
+import math
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-__all__ = ["Recording", "Channel", "write_recording", "read_recording", "FORMAT_TAG"]
+__all__ = ["QUANTITY_UNITS", "Channel", "Recording"]
 
-FORMAT_TAG = "railfem-recording v1"
-DATA_FORMATS = ("wav", "npz")
+#: quantity -> SI unit of its samples
 QUANTITY_UNITS = {"acceleration": "m/s^2", "velocity": "m/s", "displacement": "m"}
+
+
+def _positive_or_none(owner: str, name: str, value) -> None:
+    if value is not None and not (isinstance(value, (int, float)) and not isinstance(value, bool)
+                                  and math.isfinite(value) and value > 0):
+        raise ValueError(f"{owner}.{name} must be a positive finite number or None, got "
+                         f"{value!r}")
 
 
 @dataclass(frozen=True, kw_only=True)
 class Channel:
-    """One sensor. name: label. quantity: acceleration / velocity / displacement.
-    location: 'foot' or 'head' (of the rail). direction: 'z' (vertical) or 'y'.
-    x_from_support: sensor position along the track from the nearest support towards
-    the train's direction of travel (m), e.g. spacing/2 at mid-span."""
+    """One sensor.
 
-    name: str
+    name: label (unique within a recording). quantity: 'acceleration', 'velocity' or
+    'displacement' (the samples are in its SI unit). location: where the sensor sits, e.g.
+    'foot' or 'head' of the rail (free text, reported). direction: 'x', 'y' or 'z'
+    (vertical). x_from_support: sensor position along the track from the nearest support
+    towards the train's direction of travel (m), e.g. spacing/2 at mid-span; None if not
+    known."""
+
+    name: str = "ch0"
     quantity: str = "acceleration"
-    location: str = "foot"
+    location: str = "unknown"
     direction: str = "z"
     x_from_support: float | None = None
 
     def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name:
+            raise ValueError(f"Channel.name = {self.name!r}: give a non-empty label")
         if self.quantity not in QUANTITY_UNITS:
             raise ValueError(f"Channel.quantity = {self.quantity!r}: choose one of "
                              f"{', '.join(QUANTITY_UNITS)}")
         if self.direction not in ("x", "y", "z"):
             raise ValueError(f"Channel.direction = {self.direction!r}: x, y or z")
+        if self.x_from_support is not None and not (
+                isinstance(self.x_from_support, (int, float))
+                and math.isfinite(self.x_from_support)):
+            raise ValueError(f"Channel.x_from_support = {self.x_from_support!r}: a position "
+                             "in m or None")
 
     @property
     def unit(self) -> str:
+        """SI unit of the samples."""
         return QUANTITY_UNITS[self.quantity]
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
 class Recording:
-    """signal: (n_samples, n_channels) in the channels' units. sample_rate: Hz.
-    channels: one Channel per column. speed: train speed (m/s) if known, else None.
-    site: free metadata (sleeper_spacing_m, rail, description, ...)."""
+    """Time signals of one or more sensors and what is known about the train.
 
-    signal: np.ndarray
-    sample_rate: float
-    channels: tuple[Channel, ...]
+    samples: (n_samples,) or (n_samples, n_channels) in the channels' SI units, uniformly
+    sampled (stored 2-D). fs: sample rate, Hz. channels: one Channel per column (default
+    one acceleration channel 'ch0'). speed: train speed (m/s) if known. axle_spacing: the
+    bogie axle spacing (wheelbase, the shortest axle spacing of the train), m, if known.
+    axle_positions: positions of all axles along the train (m, increasing, any origin), if
+    known. name: where it came from (file name), for reports. metadata: anything else
+    (site, rail, description), kept as given."""
+
+    samples: np.ndarray
+    fs: float
+    channels: tuple[Channel, ...] = (Channel(),)
     speed: float | None = None
-    site: dict = field(default_factory=dict)
+    axle_spacing: float | None = None
+    axle_positions: tuple[float, ...] | None = None
+    name: str = ""
+    metadata: dict = field(default_factory=dict)
 
-    def __post_init__(self):
-        sig = np.asarray(self.signal, dtype=float)
-        if sig.ndim == 1:
-            sig = sig[:, None]
-        object.__setattr__(self, "signal", sig)
-        object.__setattr__(self, "channels", tuple(self.channels))
-        if sig.ndim != 2 or sig.shape[1] != len(self.channels):
-            raise ValueError(f"Recording.signal has shape {sig.shape} but there are "
-                             f"{len(self.channels)} channels: one column per channel")
-        if not (np.isfinite(self.sample_rate) and self.sample_rate > 0):
-            raise ValueError(f"Recording.sample_rate = {self.sample_rate!r} Hz: give a rate > 0")
-        if not np.all(np.isfinite(sig)):
-            raise ValueError("Recording.signal contains NaN or inf samples")
-        if self.speed is not None and not (np.isfinite(self.speed) and self.speed > 0):
-            raise ValueError(f"Recording.speed = {self.speed!r} m/s: give a speed > 0 or None")
+    def __post_init__(self) -> None:
+        x = np.asarray(self.samples)
+        if not np.issubdtype(x.dtype, np.number) or np.iscomplexobj(x):
+            raise ValueError(f"Recording.samples must be real numbers, got dtype {x.dtype}"
+                             f"{self._where()}")
+        if x.ndim == 1:
+            x = x[:, None]
+        channels = tuple(self.channels)
+        if x.ndim != 2 or x.shape[0] < 16:
+            raise ValueError(f"Recording.samples must be (n_samples,) or (n_samples, "
+                             f"n_channels) with at least 16 samples, got shape "
+                             f"{np.shape(self.samples)}{self._where()}")
+        if x.shape[1] != len(channels):
+            raise ValueError(f"Recording.samples has {x.shape[1]} column(s) but there are "
+                             f"{len(channels)} channel(s): one column per channel"
+                             f"{self._where()}")
+        if not all(isinstance(c, Channel) for c in channels):
+            raise TypeError("Recording.channels must hold Channel objects")
+        names = [c.name for c in channels]
+        if len(set(names)) != len(names):
+            raise ValueError(f"Recording.channels have repeated names {names}{self._where()}")
+        if not np.all(np.isfinite(x)):
+            bad = np.argwhere(~np.isfinite(x))[0]
+            raise ValueError(f"Recording.samples has a non-finite value at sample {bad[0]} of "
+                             f"channel {names[bad[1]]!r}{self._where()}; remove or repair it")
+        if not (isinstance(self.fs, (int, float)) and math.isfinite(self.fs) and self.fs > 0):
+            raise ValueError(f"Recording.fs (sample rate) must be positive and finite in Hz, "
+                             f"got {self.fs!r}{self._where()}")
+        _positive_or_none("Recording", "speed", self.speed)
+        _positive_or_none("Recording", "axle_spacing", self.axle_spacing)
+        if self.axle_positions is not None:
+            a = np.asarray(self.axle_positions, dtype=float)
+            if a.ndim != 1 or a.size < 2 or not np.all(np.isfinite(a)) or np.any(np.diff(a) <= 0):
+                raise ValueError("Recording.axle_positions must be at least two finite axle "
+                                 f"positions in m, strictly increasing, got "
+                                 f"{self.axle_positions!r}{self._where()}")
+            object.__setattr__(self, "axle_positions", tuple(float(v) for v in a))
+        if not isinstance(self.metadata, dict):
+            raise TypeError("Recording.metadata must be a dict")
+        object.__setattr__(self, "samples", x.astype(float, copy=False))
+        object.__setattr__(self, "fs", float(self.fs))
+        object.__setattr__(self, "channels", channels)
+
+    def _where(self) -> str:
+        return f" (recording {self.name})" if self.name else ""
 
     @property
-    def time(self) -> np.ndarray:
-        return np.arange(self.signal.shape[0]) / self.sample_rate
+    def n_samples(self) -> int:
+        return int(self.samples.shape[0])
 
     @property
     def duration(self) -> float:
-        return self.signal.shape[0] / self.sample_rate
+        """Length of the record, s."""
+        return self.n_samples / self.fs
 
+    @property
+    def time(self) -> np.ndarray:
+        """(n_samples,) instants of the samples from the record start, s."""
+        return np.arange(self.n_samples) / self.fs
 
-def _sidecar(rec: Recording, data_name: str) -> dict:
-    return {"format": FORMAT_TAG, "data_file": data_name, "sample_rate_hz": rec.sample_rate,
-            "n_samples": int(rec.signal.shape[0]),
-            "channels": [{"name": c.name, "quantity": c.quantity, "unit": c.unit,
-                          "location": c.location, "direction": c.direction,
-                          "x_from_support_m": c.x_from_support} for c in rec.channels],
-            "speed_m_per_s": rec.speed, "site": rec.site}
+    def _single(self) -> None:
+        if len(self.channels) != 1:
+            raise ValueError(f"recording {self.name or '(unnamed)'} has channels "
+                             f"{[c.name for c in self.channels]}; choose one "
+                             "(Recording.select(name), --channel NAME)")
 
+    @property
+    def trace(self) -> np.ndarray:
+        """(n_samples,) samples of a single-channel recording."""
+        self._single()
+        return self.samples[:, 0]
 
-def write_recording(path, rec: Recording, *, data_format: str = "wav") -> dict:
-    """Write ``<stem>.<wav|npz>`` and ``<stem>.json`` (path may carry any suffix);
-    returns {"data": path, "meta": path}."""
-    from .atomic import write_bytes_atomic, write_text_atomic
+    @property
+    def channel(self) -> Channel:
+        """The sensor of a single-channel recording."""
+        self._single()
+        return self.channels[0]
 
-    if data_format not in DATA_FORMATS:
-        raise ValueError(f"data_format = {data_format!r}: choose one of {DATA_FORMATS}")
-    path = Path(path)
-    stem = path.with_suffix("") if path.suffix in (".wav", ".npz", ".json") else path
-    data_path = stem.with_name(stem.name + "." + data_format)
-    buf = io.BytesIO()
-    samples = rec.signal.astype(np.float32)
-    if data_format == "wav":
-        from scipy.io import wavfile
-
-        if rec.sample_rate != int(rec.sample_rate):
-            raise ValueError(f"WAV needs an integer sample rate, got {rec.sample_rate} Hz: "
-                             "use data_format='npz'")
-        wavfile.write(buf, int(rec.sample_rate), samples if samples.shape[1] > 1
-                      else samples[:, 0])
-    else:
-        np.savez(buf, signal=samples)
-    paths = {"data": write_bytes_atomic(data_path, buf.getvalue())}
-    meta = json.dumps(_sidecar(rec, data_path.name), indent=2) + "\n"
-    paths["meta"] = write_text_atomic(stem.with_name(stem.name + ".json"), meta)
-    return paths
-
-
-def read_recording(path) -> Recording:
-    """Read a recording from its sidecar (.json) or data file (.wav / .npz)."""
-    path = Path(path)
-    meta_path = path if path.suffix == ".json" else path.with_suffix(".json")
-    try:
-        meta = json.loads(meta_path.read_text())
-    except FileNotFoundError:
-        raise ValueError(f"{meta_path}: the recording's metadata sidecar is missing") from None
-    if meta.get("format") != FORMAT_TAG:
-        raise ValueError(f"{meta_path}: not a {FORMAT_TAG!r} sidecar (format = "
-                         f"{meta.get('format')!r})")
-    data_path = meta_path.with_name(meta["data_file"])
-    if data_path.suffix == ".wav":
-        from scipy.io import wavfile
-
-        rate, samples = wavfile.read(data_path)
-        if rate != meta["sample_rate_hz"]:
-            raise ValueError(f"{data_path}: sample rate {rate} Hz differs from the sidecar's "
-                             f"{meta['sample_rate_hz']} Hz")
-    else:
-        with np.load(data_path) as z:
-            samples = z["signal"]
-    samples = np.asarray(samples, dtype=float)
-    if samples.ndim == 1:
-        samples = samples[:, None]
-    if samples.shape[0] != meta["n_samples"]:
-        raise ValueError(f"{data_path}: {samples.shape[0]} samples, the sidecar says "
-                         f"{meta['n_samples']} (truncated file?)")
-    chans = tuple(Channel(name=c["name"], quantity=c["quantity"], location=c["location"],
-                          direction=c["direction"], x_from_support=c.get("x_from_support_m"))
-                  for c in meta["channels"])
-    for c, m in zip(chans, meta["channels"]):
-        if m.get("unit") != c.unit:
-            raise ValueError(f"{meta_path}: channel {c.name!r} unit {m.get('unit')!r} does not "
-                             f"match its quantity {c.quantity!r} ({c.unit})")
-    return Recording(signal=samples, sample_rate=float(meta["sample_rate_hz"]), channels=chans,
-                     speed=meta.get("speed_m_per_s"), site=meta.get("site", {}))
+    def select(self, channel: str | int | None = None) -> "Recording":
+        """The recording of one channel (by name or column index); None: the only channel
+        (an error naming the channels if there are several)."""
+        names = [c.name for c in self.channels]
+        if channel is None:
+            self._single()
+            return self
+        if isinstance(channel, int) and not isinstance(channel, bool):
+            if not -len(names) <= channel < len(names):
+                raise ValueError(f"recording {self.name or '(unnamed)'} has {len(names)} "
+                                 f"channel(s); column {channel} does not exist")
+            j = channel % len(names)
+        elif channel in names:
+            j = names.index(channel)
+        else:
+            raise ValueError(f"recording {self.name or '(unnamed)'} has no channel "
+                             f"{channel!r}; it has {names}")
+        name = self.name if len(names) == 1 or not self.name else f"{self.name}:{names[j]}"
+        return replace(self, samples=self.samples[:, j], channels=(self.channels[j],),
+                       name=name)

@@ -29,6 +29,7 @@ import numpy as np
 from .conventions import R_REF
 
 __all__ = ["RoughnessSpectrum", "amplitude_at", "frequency_of", "wavelength_of",
+           "wavelength_bands",
            "read_spectrum_csv", "write_spectrum_csv", "read_sbb_roughness", "sloped_spectrum",
            "combine"]
 
@@ -114,14 +115,20 @@ def amplitude_at(spectrum: RoughnessSpectrum, frequency, speed: float, *,
     return R_REF * 10 ** (level / 20)
 
 
+def wavelength_bands(lam_min: float, lam_max: float) -> np.ndarray:
+    """Base-10 one-third-octave wavelength band centres 10^(i/10) m in [lam_min, lam_max]
+    (m), longest first."""
+    i = np.arange(math.ceil(10 * math.log10(lam_min) - 1e-9),
+                  math.floor(10 * math.log10(lam_max) + 1e-9) + 1)
+    return 10.0 ** (i[::-1] / 10)
+
+
 def sloped_spectrum(level_at_10mm: float = 0.0, slope_db_per_decade: float = 10.0,
                     lambda_min: float = 0.001, lambda_max: float = 1.0,
                     name: str = "") -> RoughnessSpectrum:
     """A straight-line spectrum: L = level_at_10mm + slope * lg(lambda / 10 mm) over the
     base-10 one-third-octave wavelength bands from lambda_min to lambda_max (m)."""
-    i = np.arange(math.ceil(10 * math.log10(lambda_min) - 1e-9),
-                  math.floor(10 * math.log10(lambda_max) + 1e-9) + 1)
-    lam = 10.0 ** (i / 10)
+    lam = wavelength_bands(lambda_min, lambda_max)
     return RoughnessSpectrum(wavelength=lam,
                              level=level_at_10mm + slope_db_per_decade * np.log10(lam / 0.01),
                              name=name or f"{level_at_10mm:g} dB at 10 mm, "

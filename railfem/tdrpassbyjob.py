@@ -9,13 +9,12 @@ from __future__ import annotations
 
 import json
 import logging
-import math
 import time
 from pathlib import Path
 
 import numpy as np
 
-from .atomic import prepare_output_dir, write_text
+from .atomic import json_safe, prepare_output_dir, write_text
 from .estimators.passby import PassbyDecayRate, PassbyOptions, passby_decay_rate
 from .io.recording import read_recording
 
@@ -24,19 +23,6 @@ __all__ = ["COMMAND", "run_tdr_passby"]
 log = logging.getLogger(__name__)
 
 COMMAND = "tdr passby"
-
-
-def _plain(obj):
-    """JSON-ready copy: NaN/inf -> None, numpy scalars and arrays -> Python."""
-    if isinstance(obj, dict):
-        return {str(k): _plain(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple, np.ndarray)):
-        return [_plain(v) for v in obj]
-    if isinstance(obj, (float, np.floating)):
-        return float(obj) if math.isfinite(obj) else None
-    if isinstance(obj, np.integer):
-        return int(obj)
-    return obj
 
 
 def _fmt(v) -> str:
@@ -113,8 +99,8 @@ def run_tdr_passby(paths, out_dir, options: PassbyOptions | None = None, *,
         raise ValueError("give at least one recording (.npz or .wav with a .toml/.json "
                          "sidecar)")
     # all input checks before computing
-    recordings = [read_recording(p, channel=channel) for p in paths]
-    units = {r.unit for r in recordings}
+    recordings = [read_recording(p).select(channel) for p in paths]
+    units = {r.channel.unit for r in recordings}
     if len(units) > 1:
         raise ValueError(f"the recordings mix quantities ({sorted(units)}); estimate "
                          "accelerations and velocities separately")
@@ -136,8 +122,9 @@ def run_tdr_passby(paths, out_dir, options: PassbyOptions | None = None, *,
         "overrides": {"speed_m_s": speed, "axle_spacing_m": axle_spacing,
                       "axle_positions_m": axle_positions},
         "options": {k: getattr(opts, k) for k in opts.__dataclass_fields__},
-        "sensors": [{"name": r.name, "sensor": r.sensor, "direction": r.direction,
-                     "quantity": r.quantity, "fs_hz": r.fs, "duration_s": r.duration}
+        "sensors": [{"name": r.name, "channel": r.channel.name, "location": r.channel.location,
+                     "direction": r.channel.direction, "quantity": r.channel.quantity,
+                     "fs_hz": r.fs, "duration_s": r.duration}
                     for r in recordings],
         "wheels": [{"name": n, "count": w.count, "speed_m_s": w.speed,
                     "speed_source": w.speed_source, "speed_scatter_m_s": w.speed_scatter}
@@ -153,7 +140,7 @@ def run_tdr_passby(paths, out_dir, options: PassbyOptions | None = None, *,
         "runtime_s": time.perf_counter() - t0,
         "files": {k: str(v) for k, v in files.items()},
     }
-    files["json"] = write_text(out / "run.json", json.dumps(_plain(summary), indent=2) + "\n")
+    files["json"] = write_text(out / "run.json", json.dumps(json_safe(summary), indent=2) + "\n")
     summary["files"]["json"] = str(files["json"])
     log.info("tdr-passby: %d recording(s), %d bands in %.1f s", len(paths), len(b),
              summary["runtime_s"])

@@ -115,3 +115,17 @@ def test_version_option(capsys):
         cli.main(["--version"])
     assert exc.value.code == 0
     assert capsys.readouterr().out.startswith("railfem ")
+
+
+def test_json_safe_gives_strict_json():
+    import json
+
+    import numpy as np
+
+    from railfem.atomic import json_safe
+
+    data = {1: np.array([1.0, np.nan, np.inf]), "n": np.int64(3), "b": np.bool_(True),
+            "t": (np.float32(0.5), None, "x")}
+    out = json_safe(data)
+    assert out == {"1": [1.0, None, None], "n": 3, "b": True, "t": [0.5, None, "x"]}
+    json.dumps(out, allow_nan=False)

@@ -1,4 +1,4 @@
-"""ISO 3095:2013 lower limits of the track decay rate (railfem.standards.iso3095)."""
+"""ISO 3095:2013 limits: track decay rate (Figure 3) and rail roughness (Figure 2)."""
 import numpy as np
 import pytest
 
@@ -35,3 +35,18 @@ def test_below_limit():
     assert two.shape == (5, 2) and not two[:, 1].any()
     with pytest.raises(ValueError, match="band axis first"):
         iso3095.below_limit(bands, d[:3], "vertical")
+
+
+def test_roughness_limit_is_two_straight_lines_on_log_wavelength():
+    """A mistyped value breaks the shape: about 2 dB per band from 40 cm to 3.15 cm
+    (20 dB/decade), 0.6 dB per band below (6 dB/decade), the corner at 3.15 cm."""
+    from railfem.standards.iso3095 import roughness_limit
+
+    lam, lim = roughness_limit()
+    assert lam.size == lim.size == 22
+    np.testing.assert_allclose(np.diff(np.log10(lam)), -0.1, atol=8e-3)  # nominal 1/3 oct.
+    assert lam[0] == pytest.approx(0.40) and lam[-1] == pytest.approx(0.00315)
+    step = -np.diff(lim)
+    corner = int(np.argmin(np.abs(lam - 0.0315)))
+    np.testing.assert_allclose(step[:corner - 1], 2.0, atol=0.11)
+    np.testing.assert_allclose(step[corner:], 0.6, atol=1e-9)

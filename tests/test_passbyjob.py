@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from railfem.cli import main
-from railfem.recording import read_recording
+from railfem.io.recording import read_recording
 
 
 def test_passby_command_writes_everything(tmp_path, capsys):
@@ -32,7 +32,7 @@ def test_passby_command_writes_everything(tmp_path, capsys):
     diff = np.array([float(r[3]) for r in rows[1:]])
     assert np.allclose(diff, run["exact_minus_paper_db"], atol=1e-3)
     rec = read_recording(out / "passby.wav")
-    assert rec.speed is None and rec.sample_rate == 25600.0  # --no-speed
+    assert rec.speed is None and rec.fs == 25600.0  # --no-speed
     truth = json.loads((out / "passby.truth.json").read_text())
     assert truth["speed_m_per_s"] == pytest.approx(50.0)
     assert "wrote" in capsys.readouterr().out

@@ -5,5 +5,6 @@
 
 ``passby`` — track decay rate from pass-by recordings (energy iteration, slope fitting),
 with ``bands`` (IEC 61260-1 band energy), ``wheels`` (wheel instants, speed),
-``passby_energy`` (the energy-iteration equation) and ``recording`` (one sensor's signal).
+``passby_energy`` (the energy-iteration equation); recordings are
+:class:`railfem.recording.Recording` (one sensor each, ``Recording.select``).
 """

@@ -46,7 +46,7 @@ from railfem.standards.iec61260 import MAX_UPPER_EDGE_FRACTION, ThirdOctaveBands
 from .bands import band_energy, block_levels, energy_between
 from .passby_energy import (DB_PER_NEPER_POWER, coarse_kernel, energy_ratio, phi,
                             solve_energy_ratio)
-from .recording import Recording
+from railfem.recording import Recording
 from .wheels import WheelPassage, wheel_passage
 
 __all__ = ["PassbyOptions", "DecayEstimate", "PassbyDecayRate", "passby_decay_rate",
@@ -201,7 +201,7 @@ def _analysis_stretch(w: WheelPassage, duration: float, edge: float, margin: flo
 
 def _one_band(rec: Recording, w: WheelPassage, centre: float, opts: PassbyOptions):
     """Energy-iteration and slope-fit results of one band of one recording."""
-    be = band_energy(rec.samples, rec.fs, centre)
+    be = band_energy(rec.trace, rec.fs, centre)
     v = w.speed
     tau, k = coarse_kernel(be.kernel_t * v, be.kernel)
     edge = float(be.kernel_t[-1])  # filter transients at the record ends
@@ -295,6 +295,10 @@ def passby_decay_rate(recordings, options: PassbyOptions | None = None, *,
     for r in recordings:
         if not isinstance(r, Recording):
             raise TypeError(f"expected Recording objects, got {type(r).__name__}")
+        quantity = r.channel.quantity  # one sensor per recording (else names the channels)
+        if quantity not in ("acceleration", "velocity"):
+            raise ValueError(f"recording {r.name or '(unnamed)'} holds a {quantity}; "
+                             "the estimators take an acceleration or a velocity")
     bands = third_octave_bands(opts.f_low, opts.f_high)
     top = float(bands.upper[-1])
     for r in recordings:

@@ -7,7 +7,9 @@
 * :mod:`railfem.identify.forward` — the model at the data's geometry, cheap to re-evaluate;
 * :mod:`railfem.identify.spectral` — the uniform discrete coupling as a rational function
   of the support stiffness;
-* :func:`compare_models` — the same data fitted with several models.
+* :func:`compare_models` — the same data fitted with several models;
+* :mod:`railfem.identify.roughness` — combined wheel-rail roughness from pass-by
+  vibration, full and simplified methods (METHOD.md section 8, docs/roughness.md).
 """
 from railfem.identify.data import QUANTITIES, Target, decay_rate_target, hammer_target
 from railfem.identify.fit import DEFAULT_PARAMETERS, FIT_BOUNDS, FitResult, fit

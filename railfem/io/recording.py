@@ -1,30 +1,41 @@
-"""Read and write pass-by recordings: a signal file (NPZ or WAV) plus a metadata sidecar.
+"""Read and write recordings (:class:`railfem.recording.Recording`): a signal file (NPZ or
+WAV) plus a metadata sidecar (TOML or JSON) with the same stem.
 
-A recording ``run1.npz`` or ``run1.wav`` has its metadata in ``run1.toml`` or
-``run1.json`` next to it (the first that exists; both is an error). Sidecar keys (SI;
-only ``quantity`` is required, ``fs_hz`` when the signal file has no rate)::
+``run1.npz`` or ``run1.wav`` has its metadata in ``run1.toml`` or ``run1.json`` (the one
+that exists; both is an error). :func:`read_recording` takes either the signal file or the
+sidecar. Sidecar keys (SI; a field team writes the short single-sensor form by hand)::
 
-    quantity = "acceleration"     # or "velocity"; samples are then m/s^2 or m/s
-    unit = "m/s^2"                # optional; must match the quantity's SI unit if given
-    fs_hz = 25600.0               # sample rate (NPZ may hold it as 'fs'; WAV has its own)
-    scale = 1.0                   # optional: SI value = scale * stored value (WAV PCM)
-    sensor = "foot"               # optional, free text
-    direction = "z"               # optional: x, y or z
+    fs_hz = 25600.0               # sample rate (a WAV header or the NPZ array 'fs' may
+                                  # hold it instead; two sources must agree)
+    scale = 1.0                   # optional: SI value = scale * stored value (needed for
+                                  # integer-PCM WAV)
     speed_m_s = 50.0              # optional: train speed
     axle_spacing_m = 2.5          # optional: bogie axle spacing (wheelbase)
     axle_positions_m = [0, 2.5]   # optional: all axle positions along the train
+    # one sensor (short form):
+    quantity = "acceleration"     # required: acceleration, velocity or displacement
+    unit = "m/s^2"                # optional; must be the quantity's SI unit
+    location = "foot"             # optional, free text ('sensor' is accepted too)
+    direction = "z"               # optional: x, y or z
+    x_from_support_m = 0.3        # optional: from the nearest support, m
+    # or several sensors, one column each, in the order of the columns:
+    [[channels]]
+    name = "rail_foot_z"
+    quantity = "acceleration"     # and unit, location, direction, x_from_support_m
+    # written by railfem: format = "railfem-recording v2", data_file, n_samples
 
-Every other key is kept in ``Recording.metadata``.
+Every other key is kept in ``Recording.metadata``. The NPZ holds ``samples``
+((n,) or (n, n_channels)) and optionally ``fs``; a WAV file holds one channel per column
+(float WAV in SI units, integer PCM with ``scale``). Sidecars of the earlier
+``railfem-recording v1`` format (``railfem passby`` before the formats were unified) are
+read too.
 
-A recording written by ``railfem passby`` (:mod:`railfem.recording`, JSON sidecar with
-``format = "railfem-recording v1"``, one column per channel) is read too: one channel
-becomes one :class:`Recording` (``channel`` names it when there are several). The NPZ holds ``samples`` (1-D) and
-optionally ``fs``. A WAV file must be mono; integer PCM is read as integers and needs
-``scale`` (SI units per count), float WAV is read as is. Truths of a simulation belong in a
-separate file that this reader never opens.
+The truth of a simulation goes to ``<stem>.truth.json`` (:func:`write_recording` with
+``truth=``); :func:`read_recording` never opens it.
 """
 from __future__ import annotations
 
+import io
 import json
 import math
 import tomllib
@@ -32,12 +43,21 @@ from pathlib import Path
 
 import numpy as np
 
-from railfem.estimators.recording import QUANTITIES, Recording
+from railfem.recording import QUANTITY_UNITS, Channel, Recording
 
-__all__ = ["read_recording", "write_recording", "sidecar_path"]
+__all__ = ["FORMAT_TAG", "read_recording", "write_recording", "sidecar_path",
+           "truth_path"]
 
-_KNOWN = {"quantity", "unit", "fs_hz", "scale", "sensor", "direction", "speed_m_s",
-          "axle_spacing_m", "axle_positions_m"}
+FORMAT_TAG = "railfem-recording v2"
+LEGACY_TAG = "railfem-recording v1"
+DATA_FORMATS = ("npz", "wav")
+SIDECARS = ("toml", "json")
+
+_TOP = {"format", "data_file", "fs_hz", "n_samples", "scale", "speed_m_s", "axle_spacing_m",
+        "axle_positions_m", "channels"}
+_SHORT = {"quantity", "unit", "location", "sensor", "direction", "x_from_support_m", "name"}
+_CHANNEL = {"name", "quantity", "unit", "location", "direction", "x_from_support_m"}
+RESERVED = _TOP | _SHORT
 
 
 def sidecar_path(path) -> Path:
@@ -54,6 +74,14 @@ def sidecar_path(path) -> Path:
     return found[0]
 
 
+def truth_path(path) -> Path:
+    """Where a simulator's truth of recording ``path`` lives (``<stem>.truth.json``)."""
+    path = Path(path)
+    stem = path.with_suffix("") if path.suffix.lower() in (".npz", ".wav", ".json",
+                                                            ".toml") else path
+    return stem.with_name(stem.name + ".truth.json")
+
+
 def _read_sidecar(path: Path) -> dict:
     try:
         if path.suffix == ".toml":
@@ -64,6 +92,8 @@ def _read_sidecar(path: Path) -> dict:
     except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
         raise ValueError(f"metadata file {path} is not valid {path.suffix[1:].upper()}: "
                          f"{exc}") from None
+    except OSError as exc:
+        raise ValueError(f"cannot read metadata file {path}: {exc.strerror or exc}") from None
     if not isinstance(data, dict):
         raise ValueError(f"metadata file {path} must hold a table/object of keys")
     return data
@@ -78,138 +108,247 @@ def _number(meta: dict, key: str, where: Path):
     return float(v)
 
 
-def _from_railfem_recording(path: Path, channel: str | None) -> Recording:
-    from railfem import recording as rr
-
-    rec = rr.read_recording(path)
-    names = [c.name for c in rec.channels]
-    if channel is None:
-        if len(names) > 1:
-            raise ValueError(f"recording {path.name} has channels {names}; choose one "
-                             "(channel=... / --channel NAME)")
-        channel = names[0]
-    if channel not in names:
-        raise ValueError(f"recording {path.name} has no channel {channel!r}; it has {names}")
-    j = names.index(channel)
-    c = rec.channels[j]
-    if c.quantity not in QUANTITIES:
-        raise ValueError(f"recording {path.name}, channel {channel!r}: quantity "
-                         f"{c.quantity!r} is not supported; give an acceleration or velocity")
-    meta = dict(rec.site)
-    meta.update(channel=c.name, x_from_support_m=c.x_from_support)
-    return Recording(samples=rec.signal[:, j], fs=rec.sample_rate, quantity=c.quantity,
-                     sensor=c.location, direction=c.direction, speed=rec.speed,
-                     name=f"{path.name}:{c.name}" if len(names) > 1 else path.name,
-                     metadata=meta)
+def _from_v1(meta: dict) -> dict:
+    """The keys of a 'railfem-recording v1' sidecar in today's names."""
+    out = {k: v for k, v in meta.items() if k not in ("format", "sample_rate_hz",
+                                                      "speed_m_per_s", "site")}
+    out.update(format=FORMAT_TAG, fs_hz=meta.get("sample_rate_hz"),
+               speed_m_s=meta.get("speed_m_per_s"))
+    out.update(meta.get("site") or {})
+    return out
 
 
-def read_recording(path, *, channel: str | None = None) -> Recording:
-    """Read ``path`` (.npz or .wav) and its sidecar into a :class:`Recording`.
-
-    ``channel`` selects a channel of a multi-channel ``railfem passby`` recording."""
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"recording {path} does not exist")
-    meta_path = sidecar_path(path)
-    meta = _read_sidecar(meta_path)
-    if "format" in meta:
-        from railfem.recording import FORMAT_TAG
-
-        if meta["format"] != FORMAT_TAG:
-            raise ValueError(f"{meta_path}: unknown recording format {meta['format']!r}")
-        return _from_railfem_recording(path, channel)
-    if channel is not None:
-        raise ValueError(f"recording {path.name} has a single channel; do not give channel")
-    quantity = meta.get("quantity")
-    if quantity not in QUANTITIES:
-        raise ValueError(f"{meta_path}: 'quantity' must be one of {sorted(QUANTITIES)}, got "
+def _channel(entry: dict, where: str, default_name: str) -> Channel:
+    quantity = entry.get("quantity")
+    if quantity not in QUANTITY_UNITS:
+        raise ValueError(f"{where}: 'quantity' must be one of {sorted(QUANTITY_UNITS)}, got "
                          f"{quantity!r}")
-    unit = meta.get("unit")
-    if unit is not None and unit.replace("²", "^2") not in (QUANTITIES[quantity],
-                                                           QUANTITIES[quantity].replace("^", "")):
-        raise ValueError(f"{meta_path}: unit {unit!r} is not the SI unit of {quantity} "
-                         f"({QUANTITIES[quantity]}); convert the data or set 'scale'")
-    fs_meta = _number(meta, "fs_hz", meta_path)
-    scale = _number(meta, "scale", meta_path)
-    suffix = path.suffix.lower()
+    unit = entry.get("unit")
+    si = QUANTITY_UNITS[quantity]
+    if unit is not None and str(unit).replace("²", "^2") not in (si, si.replace("^", "")):
+        raise ValueError(f"{where}: unit {unit!r} is not the SI unit of {quantity} ({si}); "
+                         "convert the data or set 'scale'")
+    location = entry.get("location", entry.get("sensor", "unknown"))
+    x = entry.get("x_from_support_m")
+    try:
+        return Channel(name=str(entry.get("name", default_name)), quantity=quantity,
+                       location=str(location), direction=str(entry.get("direction", "z")),
+                       x_from_support=None if x is None else float(x))
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{where}: {exc}") from None
+
+
+def _channels(meta: dict, where: Path) -> tuple[Channel, ...]:
+    given = meta.get("channels")
+    short = sorted(k for k in _SHORT if k in meta)
+    if given is None:
+        return (_channel({("location" if k == "sensor" else k): meta[k] for k in short},
+                         str(where), "ch0"),)
+    if short:
+        raise ValueError(f"{where}: both a 'channels' list and the single-sensor keys "
+                         f"{short}; keep one form")
+    if not isinstance(given, list) or not given or not all(isinstance(c, dict) for c in given):
+        raise ValueError(f"{where}: 'channels' must be a list of tables ([[channels]] in "
+                         "TOML), one per column of the samples")
+    for j, c in enumerate(given):
+        unknown = set(c) - _CHANNEL
+        if unknown:
+            raise ValueError(f"{where}: channels[{j}] has unknown keys {sorted(unknown)}; "
+                             f"valid: {', '.join(sorted(_CHANNEL))}")
+    return tuple(_channel(c, f"{where}, channels[{j}]", f"ch{j}") for j, c in enumerate(given))
+
+
+def _data_path(path: Path, meta_path: Path, meta: dict) -> Path:
+    named = meta.get("data_file")
+    if path.suffix.lower() in (".npz", ".wav"):
+        if named is not None and named != path.name:
+            raise ValueError(f"{meta_path} describes {named}, not {path.name}")
+        return path
+    if named is not None:
+        return meta_path.with_name(str(named))
+    found = [meta_path.with_suffix("." + s) for s in DATA_FORMATS
+             if meta_path.with_suffix("." + s).is_file()]
+    if len(found) != 1:
+        raise ValueError(f"{meta_path}: {'no' if not found else 'more than one'} signal file "
+                         f"({meta_path.stem}.npz or .wav) next to it; give the signal file")
+    return found[0]
+
+
+def _load_samples(data_path: Path, meta_path: Path, scale):
+    suffix = data_path.suffix.lower()
+    if not data_path.is_file():
+        raise ValueError(f"recording {data_path} does not exist")
     if suffix == ".npz":
-        with np.load(path, allow_pickle=False) as z:
-            if "samples" not in z:
-                raise ValueError(f"{path}: no array 'samples' (has {sorted(z.files)})")
-            samples = np.asarray(z["samples"])
+        with np.load(data_path, allow_pickle=False) as z:
+            key = "samples" if "samples" in z else "signal" if "signal" in z else None
+            if key is None:
+                raise ValueError(f"{data_path}: no array 'samples' (has {sorted(z.files)})")
+            samples = np.asarray(z[key])
             fs_file = float(z["fs"]) if "fs" in z else None
     elif suffix == ".wav":
         from scipy.io import wavfile
 
-        fs_file, samples = wavfile.read(path)
+        fs_file, samples = wavfile.read(data_path)
         fs_file = float(fs_file)
-        if samples.ndim != 1:
-            raise ValueError(f"{path}: {samples.shape[1]} channels; railfem reads mono WAV "
-                             "files (one sensor per file)")
-        if np.issubdtype(samples.dtype, np.integer) and scale is None:
-            raise ValueError(f"{meta_path}: {path.name} is integer PCM; give 'scale' (SI "
-                             "units per count) so the samples can be converted")
     else:
-        raise ValueError(f"recording {path}: unknown format {path.suffix!r}; use .npz or .wav")
+        raise ValueError(f"recording {data_path}: unknown format {data_path.suffix!r}; use "
+                         ".npz or .wav")
+    if np.issubdtype(samples.dtype, np.integer) and scale is None:
+        raise ValueError(f"{meta_path}: {data_path.name} holds integers (PCM); give 'scale' "
+                         "(SI units per count) so the samples can be converted")
+    return samples.astype(float) * (1.0 if scale is None else scale), fs_file
+
+
+def read_recording(path) -> Recording:
+    """Read a recording from its signal file (.npz / .wav) or its sidecar (.toml / .json).
+
+    Every channel is read; ``Recording.select(name)`` picks one for the estimators."""
+    path = Path(path)
+    if path.suffix.lower() in (".toml", ".json"):
+        meta_path = path
+        if not meta_path.is_file():
+            raise ValueError(f"recording metadata {path} does not exist")
+    elif path.suffix.lower() in (".npz", ".wav"):
+        if not path.is_file():
+            raise ValueError(f"recording {path} does not exist")
+        meta_path = sidecar_path(path)
+    else:
+        raise ValueError(f"recording {path}: unknown format {path.suffix!r}; give the .npz "
+                         "or .wav signal file or its .toml/.json metadata")
+    meta = _read_sidecar(meta_path)
+    tag = meta.get("format")
+    if tag == LEGACY_TAG:
+        meta = _from_v1(meta)
+    elif tag not in (None, FORMAT_TAG):
+        raise ValueError(f"{meta_path}: unknown recording format {tag!r} (this railfem reads "
+                         f"{FORMAT_TAG!r})")
+    channels = _channels(meta, meta_path)
+    scale = _number(meta, "scale", meta_path)
+    data_path = _data_path(path, meta_path, meta)
+    samples, fs_file = _load_samples(data_path, meta_path, scale)
+    fs_meta = _number(meta, "fs_hz", meta_path)
     if fs_file is not None and fs_meta is not None and not math.isclose(fs_file, fs_meta,
                                                                          rel_tol=1e-9):
-        raise ValueError(f"{path}: the file says fs = {fs_file:g} Hz, {meta_path.name} says "
-                         f"{fs_meta:g} Hz; make them agree")
+        raise ValueError(f"{data_path}: the file says fs = {fs_file:g} Hz, {meta_path.name} "
+                         f"says {fs_meta:g} Hz; make them agree")
     fs = fs_file if fs_file is not None else fs_meta
     if fs is None:
         raise ValueError(f"{meta_path}: no sample rate; add 'fs_hz' (Hz)")
-    samples = samples.astype(float) * (1.0 if scale is None else scale)
+    n = meta.get("n_samples")
+    if n is not None and samples.shape[0] != n:
+        raise ValueError(f"{data_path}: {samples.shape[0]} samples, {meta_path.name} says "
+                         f"{n} (truncated file?)")
+    cols = 1 if samples.ndim == 1 else samples.shape[1]
+    if cols != len(channels):
+        raise ValueError(f"{data_path}: {cols} column(s) of samples but {meta_path.name} "
+                         f"describes {len(channels)} channel(s)")
     positions = meta.get("axle_positions_m")
     return Recording(
-        samples=samples, fs=fs, quantity=quantity, sensor=str(meta.get("sensor", "unknown")),
-        direction=str(meta.get("direction", "z")), speed=_number(meta, "speed_m_s", meta_path),
+        samples=samples, fs=fs, channels=channels,
+        speed=_number(meta, "speed_m_s", meta_path),
         axle_spacing=_number(meta, "axle_spacing_m", meta_path),
         axle_positions=None if positions is None else tuple(positions),
-        name=path.name, metadata={k: v for k, v in meta.items() if k not in _KNOWN})
+        name=data_path.name,
+        metadata={k: v for k, v in meta.items() if k not in RESERVED})
 
 
-def write_recording(path, recording: Recording, *, sidecar: str = "toml") -> tuple[Path, Path]:
-    """Write ``recording`` as ``path`` (.npz, float samples) plus a sidecar, atomically."""
-    from railfem.atomic import atomic_path, write_text
-
-    path = Path(path)
-    if path.suffix.lower() != ".npz":
-        raise ValueError(f"write_recording writes .npz files, got {path.name}")
-    if sidecar not in ("toml", "json"):
-        raise ValueError(f"sidecar must be 'toml' or 'json', got {sidecar!r}")
-    meta = dict(recording.metadata)
-    meta.update(quantity=recording.quantity, unit=recording.unit, fs_hz=recording.fs,
-                sensor=recording.sensor, direction=recording.direction)
-    for key, value in (("speed_m_s", recording.speed),
-                       ("axle_spacing_m", recording.axle_spacing),
-                       ("axle_positions_m", recording.axle_positions)):
+def _sidecar(rec: Recording, data_name: str) -> dict:
+    clash = sorted(set(rec.metadata) & RESERVED)
+    if clash:
+        raise ValueError(f"Recording.metadata keys {clash} are reserved for the recording's "
+                         "own fields; rename them")
+    meta = {"format": FORMAT_TAG, "data_file": data_name, "fs_hz": rec.fs,
+            "n_samples": rec.n_samples}
+    for key, value in (("speed_m_s", rec.speed), ("axle_spacing_m", rec.axle_spacing),
+                       ("axle_positions_m", rec.axle_positions)):
         if value is not None:
             meta[key] = list(value) if isinstance(value, tuple) else value
-    with atomic_path(path) as tmp:
-        with open(tmp, "wb") as fh:
-            np.savez(fh, samples=recording.samples, fs=recording.fs)
-    side = path.with_suffix("." + sidecar)
-    other = path.with_suffix(".json" if sidecar == "toml" else ".toml")
+    meta["channels"] = [{k: v for k, v in (
+        ("name", c.name), ("quantity", c.quantity), ("unit", c.unit), ("location", c.location),
+        ("direction", c.direction), ("x_from_support_m", c.x_from_support)) if v is not None}
+        for c in rec.channels]
+    meta.update(rec.metadata)
+    return meta
+
+
+def write_recording(path, recording: Recording, *, data_format: str | None = None,
+                    sidecar: str = "json", truth: dict | None = None) -> dict:
+    """Write ``<stem>.<npz|wav>`` and its sidecar ``<stem>.<json|toml>`` atomically; with
+    ``truth`` (a simulator's, JSON-ready) also ``<stem>.truth.json``. ``path`` may be the
+    stem or carry any of these suffixes (a .npz/.wav suffix sets the data format; default
+    npz). WAV files are IEEE float32 in SI units (no scaling); NPZ holds float64 ``samples``
+    and ``fs``. Returns {"data", "meta"[, "truth"]} paths."""
+    from railfem.atomic import atomic_path, write_bytes_atomic, write_text_atomic
+
+    path = Path(path)
+    suffix = path.suffix.lower().lstrip(".")
+    if suffix in DATA_FORMATS:
+        if data_format is not None and data_format != suffix:
+            raise ValueError(f"{path.name}: the suffix says {suffix}, data_format = "
+                             f"{data_format!r}")
+        data_format = suffix
+    data_format = data_format or "npz"
+    if data_format not in DATA_FORMATS:
+        raise ValueError(f"data_format = {data_format!r}: choose one of {DATA_FORMATS}")
+    if sidecar not in SIDECARS:
+        raise ValueError(f"sidecar = {sidecar!r}: choose one of {SIDECARS}")
+    stem = path.with_suffix("") if suffix in DATA_FORMATS + SIDECARS else path
+    data_path = stem.with_name(stem.name + "." + data_format)
+    side = stem.with_name(stem.name + "." + sidecar)
+    other = stem.with_name(stem.name + "." + SIDECARS[1 - SIDECARS.index(sidecar)])
     if other.exists():
         raise ValueError(f"{other} exists and would make the metadata ambiguous; remove it")
+    meta = _sidecar(recording, data_path.name)
     text = json.dumps(meta, indent=2) + "\n" if sidecar == "json" else _toml(meta)
-    write_text(side, text)
-    return path, side
+    x = recording.samples
+    if data_format == "wav":
+        from scipy.io import wavfile
+
+        if recording.fs != int(recording.fs):
+            raise ValueError(f"WAV needs an integer sample rate, got {recording.fs} Hz: "
+                             "use data_format='npz'")
+        buf = io.BytesIO()
+        samples = x.astype(np.float32)
+        wavfile.write(buf, int(recording.fs), samples if samples.shape[1] > 1 else samples[:, 0])
+        paths = {"data": write_bytes_atomic(data_path, buf.getvalue())}
+    else:
+        with atomic_path(data_path) as tmp:
+            with open(tmp, "wb") as fh:
+                np.savez(fh, samples=x if x.shape[1] > 1 else x[:, 0], fs=recording.fs)
+        paths = {"data": data_path}
+    paths["meta"] = write_text_atomic(side, text)
+    if truth is not None:
+        paths["truth"] = write_text_atomic(truth_path(stem), json.dumps(truth) + "\n")
+    return paths
+
+
+def _toml_value(key: str, value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        if not math.isfinite(value):
+            raise ValueError(f"metadata '{key}' = {value!r} cannot be written as TOML")
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, (list, tuple)) and all(
+            isinstance(v, (int, float, str)) and not isinstance(v, bool) for v in value):
+        return "[" + ", ".join(_toml_value(key, v) for v in value) + "]"
+    raise ValueError(f"metadata '{key}' = {value!r} cannot be written as TOML here; use "
+                     "sidecar='json'")
 
 
 def _toml(meta: dict) -> str:
-    """Flat TOML of str, number, bool and list-of-number values (what recordings need)."""
-    lines = []
+    """TOML of the sidecar: flat values, one level of tables, [[channels]]."""
+    lines, tables = [], []
     for key, value in meta.items():
-        if isinstance(value, (list, tuple)):
-            lines.append(f"{key} = [{', '.join(repr(float(v)) for v in value)}]")
-        elif isinstance(value, bool):
-            lines.append(f"{key} = {'true' if value else 'false'}")
-        elif isinstance(value, (int, float)):
-            lines.append(f"{key} = {value!r}")
-        elif isinstance(value, str):
-            lines.append(f"{key} = {json.dumps(value)}")
+        if key == "channels" or isinstance(value, dict):
+            tables.append((key, value))
         else:
-            raise ValueError(f"metadata '{key}' = {value!r} cannot be written as TOML here; "
-                             "use sidecar='json'")
+            lines.append(f"{key} = {_toml_value(key, value)}")
+    for key, value in tables:
+        for entry in (value if key == "channels" else [value]):
+            lines.append(f"\n[[{key}]]" if key == "channels" else f"\n[{key}]")
+            for k, v in entry.items():
+                lines.append(f"{k} = {_toml_value(k, v)}")
     return "\n".join(lines) + "\n"

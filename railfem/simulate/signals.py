@@ -20,25 +20,25 @@ X(t) = X_0 + V t. The rail acceleration (or velocity) at the sensor is the sum o
   e_n ~ N(0, sigma) from where the band content puts that wheel, so an estimator that
   finds the wheels from the low-frequency pulses locates them with that error.
 
-The truth (layout, speed, errors, band levels vs position) is returned separately and
-written to ``<stem>.truth.json`` beside the recording; estimators never read it.
+The truth (layout, speed, errors, band levels vs position) is returned separately
+(:func:`synthesise`) and :func:`passby_recording` leaves it out of the Recording;
+railfem.io.recording writes it to ``<stem>.truth.json``, which its reader never opens.
 """
 from __future__ import annotations
 
-import json
 import logging
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from ..recording import Channel, Recording, write_recording
+from ..recording import Channel, Recording
 from .passby import PassbyResult
 from .train import TrainLayout
 
 log = logging.getLogger(__name__)
 
-__all__ = ["QuasiStatic", "quasi_static", "synthesise", "write_passby_recording",
+__all__ = ["QuasiStatic", "quasi_static", "synthesise", "passby_recording",
            "DEFAULT_SAMPLE_RATE"]
 
 DEFAULT_SAMPLE_RATE = 25600.0  # Hz
@@ -174,22 +174,18 @@ def synthesise(result: PassbyResult, train: TrainLayout, speed: float, *,
     return signal, truth
 
 
-def write_passby_recording(path, signal: np.ndarray, truth: dict, *, spacing: float,
-                           location: str, speed_known: bool = True,
-                           data_format: str = "wav") -> dict:
-    """Write the recording (data + sidecar) and, separately, ``<stem>.truth.json``."""
-    from ..atomic import write_text_atomic
-
+def passby_recording(signal: np.ndarray, truth: dict, *, spacing: float, location: str,
+                     speed_known: bool = True) -> Recording:
+    """The Recording a field team would have of a synthesised pass-by: the samples, the
+    sensor (rail ``location``, vertical, its position in the span) and the speed if
+    ``speed_known``; nothing of the truth. Write it with
+    ``railfem.io.recording.write_recording(path, rec, truth=truth)``, which keeps the truth
+    in a separate file."""
     sensor_x = truth["sensor_x_m"]
-    rec = Recording(signal=signal, sample_rate=truth["sample_rate_hz"],
-                    channels=(Channel(name=f"rail_{location}_z", quantity=truth["quantity"],
-                                      location=location, direction="z",
-                                      x_from_support=round(float(sensor_x % spacing), 9)),),
-                    speed=truth["speed_m_per_s"] if speed_known else None,
-                    site={"sleeper_spacing_m": spacing, "rail": "60E1",
-                          "description": "simulated pass-by (railfem)"})
-    paths = write_recording(path, rec, data_format=data_format)
-    stem = paths["meta"].with_suffix("")
-    paths["truth"] = write_text_atomic(stem.with_name(stem.name + ".truth.json"),
-                                       json.dumps(truth) + "\n")
-    return paths
+    return Recording(samples=signal, fs=truth["sample_rate_hz"],
+                     channels=(Channel(name=f"rail_{location}_z", quantity=truth["quantity"],
+                                       location=location, direction="z",
+                                       x_from_support=round(float(sensor_x % spacing), 9)),),
+                     speed=truth["speed_m_per_s"] if speed_known else None,
+                     metadata={"sleeper_spacing_m": spacing, "rail": "60E1",
+                               "description": "simulated pass-by (railfem)"})

@@ -1,4 +1,5 @@
-"""Lower limits of the track decay rate for a reference track (EN ISO 3095:2013).
+"""Reference-track limits of EN ISO 3095:2013: the lower limits of the track decay rate
+(Figure 3) and the upper limit of the rail roughness (Figure 2).
 
 ISO 3095:2013 (Acoustics - Railway applications - Measurement of noise emitted by
 railbound vehicles), 6.2, asks that the test track of a constant-speed pass-by test have
@@ -16,6 +17,15 @@ straight segments on log-log axes between corner bands (vertical: 6 dB/m at 630 
 1.47 per band from 250 Hz to 1 kHz); tests/test_iso3095.py checks that consistency, which
 a mistyped value would break. Check them against your copy of the standard before relying
 on them for a test report.
+
+Rail roughness (ISO 3095:2013, 6.2 and Figure 2): the one-third-octave wavelength spectrum
+of the test track's rail roughness shall not exceed the limit curve of Figure 2, 40 cm to
+0.315 cm (dB re 1 um). Provenance as above: the values printed beside each point of Figure 2
+as transcribed in jmrplens/phonometry ``tests/reference_data/rolling_stock_noise.py``
+(``FIGURE_2_*``, same commit), where EN 15610:2009 Annex B.9.2 (the "2007 TSI limit"
+listing) is cited as a second, identical printing. NOT checked against the standard's text
+by us. The curve is two straight lines on a log wavelength axis (steps of about 2 dB per
+band from 40 cm to 3.15 cm, 0.6 dB per band below; tests/test_iso3095.py checks that).
 """
 from __future__ import annotations
 
@@ -28,6 +38,9 @@ __all__ = [
     "TRACK_DECAY_LIMITS",
     "track_decay_limit",
     "below_limit",
+    "ROUGHNESS_LIMIT_WAVELENGTHS_M",
+    "ROUGHNESS_LIMIT_DB",
+    "roughness_limit",
 ]
 
 #: One-third-octave band centre frequencies (Hz) of ISO 3095:2013 Figure 3.
@@ -79,3 +92,21 @@ def below_limit(band_hz, decay_rate, direction: str) -> np.ndarray:
     lim = lim.reshape(lim.shape + (1,) * (d.ndim - 1))
     with np.errstate(invalid="ignore"):
         return np.isfinite(lim) & np.isfinite(d) & (d < lim)
+
+
+#: Nominal one-third-octave wavelengths (m) of ISO 3095:2013 Figure 2, 40 cm to 0.315 cm.
+ROUGHNESS_LIMIT_WAVELENGTHS_M: tuple[float, ...] = tuple(x * 1e-2 for x in (
+    40.0, 31.5, 25.0, 20.0, 16.0, 12.5, 10.0, 8.0, 6.3, 5.0, 4.0,
+    3.15, 2.5, 2.0, 1.6, 1.25, 1.0, 0.8, 0.63, 0.5, 0.4, 0.315,
+))
+#: Upper limit of the rail roughness level (dB re 1 um) per band, ISO 3095:2013 Figure 2.
+ROUGHNESS_LIMIT_DB: tuple[float, ...] = (
+    17.1, 15.0, 13.0, 11.0, 9.0, 7.0, 4.9, 2.9, 0.9, -1.1, -3.2,
+    -5.0, -5.6, -6.2, -6.8, -7.4, -8.0, -8.6, -9.2, -9.8, -10.4, -11.0,
+)
+
+
+def roughness_limit() -> tuple[np.ndarray, np.ndarray]:
+    """(wavelength in m, longest first; limit in dB re 1 um) of the ISO 3095:2013 rail
+    roughness limit (Figure 2)."""
+    return np.array(ROUGHNESS_LIMIT_WAVELENGTHS_M), np.array(ROUGHNESS_LIMIT_DB)
