@@ -120,14 +120,14 @@ def _dispersion_args(p: argparse.ArgumentParser) -> None:
     _add_profile(p)
     _add_mesh_file(p)
     g = p.add_argument_group("frequencies (k(omega), default) or wavenumbers (omega(k))")
-    g.add_argument("--fmin", type=_positive, default=None, metavar="HZ",
-                   help="lowest frequency in Hz (default 50)")
-    g.add_argument("--fmax", type=_positive, default=None, metavar="HZ",
-                   help="highest frequency in Hz (default 5000)")
+    g.add_argument("--f-low", "--fmin", dest="fmin", type=_positive, default=None,
+                   metavar="HZ", help="lowest frequency in Hz (default 50)")
+    g.add_argument("--f-high", "--fmax", dest="fmax", type=_positive, default=None,
+                   metavar="HZ", help="highest frequency in Hz (default 5000)")
     g.add_argument("--n", type=_count, default=None,
-                   help="number of frequencies from fmin to fmax (default 100)")
+                   help="number of frequencies from --f-low to --f-high (default 100)")
     g.add_argument("--spacing", choices=("linear", "log"), default="linear",
-                   help="frequency spacing between fmin and fmax (default linear)")
+                   help="frequency spacing between --f-low and --f-high (default linear)")
     g.add_argument("--frequencies", type=_positive, nargs="+", default=None, metavar="HZ",
                    help="explicit list of frequencies in Hz")
     g.add_argument("--k-range", type=_non_negative, nargs=3, default=None,
@@ -136,8 +136,9 @@ def _dispersion_args(p: argparse.ArgumentParser) -> None:
     g.add_argument("--n-modes", type=_count, default=12,
                    help="modes per symmetry family for --k-range (default 12)")
     s = p.add_argument_group("solver and renders")
-    s.add_argument("--loss-factor", type=_non_negative, default=0.0,
-                   help="rail loss factor eta (default 0: undamped)")
+    s.add_argument("--eta-r", "--loss-factor", dest="loss_factor", type=_non_negative,
+                   default=0.0, metavar="ETA",
+                   help="rail loss factor (default 0: undamped)")
     s.add_argument("--method", choices=("shift-invert", "dense"), default="shift-invert",
                    help="k(omega) solver: shift-invert (the n-waves waves of smallest |k|, "
                         "fast, default) or dense (all waves)")
@@ -481,9 +482,18 @@ def _mobility_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--free", action="store_true",
                    help="free (unsupported) rail; the only model of this command, so it is "
                         "also the default")
+    p.add_argument("--f-low", type=_positive, default=None, metavar="HZ",
+                   help="lowest frequency in Hz (with --f-high and --n: log-spaced)")
+    p.add_argument("--f-high", type=_positive, default=None, metavar="HZ",
+                   help="highest frequency in Hz")
+    p.add_argument("--n", type=_count, default=None,
+                   help="number of log-spaced frequencies from --f-low to --f-high "
+                        "(default 40)")
+    p.add_argument("--frequencies", type=_positive, nargs="+", default=None, metavar="HZ",
+                   help="explicit list of frequencies in Hz (default: one-third-octave "
+                        "centres 50 Hz - 8 kHz)")
     p.add_argument("--freq", nargs="+", default=None, metavar="HZ",
-                   help="frequencies in Hz, or FMIN:FMAX:N for N log-spaced ones (default: "
-                        "one-third-octave centres 50 Hz - 8 kHz)")
+                   help="older spelling: frequencies in Hz or FMIN:FMAX:N")
     p.add_argument("--force", default="head", metavar="LOC",
                    help="load location NAME[:DIR]: 'head' (patch across the head top, "
                         "default), a single-node set (head_top, foot_sensor) or a node "
@@ -499,8 +509,8 @@ def _mobility_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--load-length", type=_non_negative, default=0.02, metavar="M",
                    help="length along the rail over which the force is spread, m (default "
                         "0.02; 0 gives a load concentrated at x = 0)")
-    p.add_argument("--eta", type=_non_negative, default=0.01,
-                   help="rail loss factor (default 0.01)")
+    p.add_argument("--eta-r", "--eta", dest="eta", type=_non_negative, default=0.01,
+                   metavar="ETA", help="rail loss factor (default 0.01)")
     p.add_argument("--method", choices=("shift-invert", "dense"), default="shift-invert",
                    help="waves kept: shift-invert (the --n-waves smallest |k| per family plus "
                         "the frozen near-field tail, default) or dense (all waves, slow)")
@@ -510,13 +520,32 @@ def _mobility_args(p: argparse.ArgumentParser) -> None:
                    metavar="DIR", help="output folder (default railfem-output/mobility)")
 
 
+def _mobility_frequencies(args):
+    """The frequencies of `railfem mobility`: --frequencies, or --f-low/--f-high/--n, or the
+    older --freq; None for the default one-third-octave centres."""
+    given = [args.frequencies is not None,
+             any(v is not None for v in (args.f_low, args.f_high, args.n)),
+             args.freq is not None]
+    if sum(given) > 1:
+        raise BadInput("give the frequencies one way: --frequencies, or --f-low/--f-high/--n")
+    if args.frequencies is not None:
+        return np.asarray(args.frequencies, dtype=float)
+    if given[1]:
+        lo = 50.0 if args.f_low is None else args.f_low
+        hi = 8000.0 if args.f_high is None else args.f_high
+        if not lo < hi:
+            raise BadInput(f"--f-low {lo:g} Hz must be below --f-high {hi:g} Hz")
+        return np.geomspace(lo, hi, 40 if args.n is None else args.n)
+    return None if args.freq is None else _frequency_spec(args.freq)
+
+
 def _mobility_run(args) -> int:
     from . import mobilityjob
 
     if args.mesh is None and args.h < 1.0:
         raise BadInput(f"--h is the element size in mm like for the other commands; "
                        f"{args.h:g} mm is too fine (did you mean {args.h * 1e3:g}?)")
-    frequencies = None if args.freq is None else _frequency_spec(args.freq)
+    frequencies = _mobility_frequencies(args)
     x = mobilityjob.DEFAULT_MOBILITY_X if args.x is None else args.x
     paths = mobilityjob.run_free_mobility(args.profile, args.h * 1e-3, args.out,
                                           frequencies=frequencies, force=args.force,
@@ -739,8 +768,10 @@ def _fit_args(p: argparse.ArgumentParser) -> None:
                    help="Dask scheduler address for --campaign (default: a local cluster)")
     p.add_argument("--transfer-positions", type=_non_negative, nargs="+", metavar="M",
                    help="hammer distances (m) of the transfers fitted (nearest measured)")
-    p.add_argument("--f-range", type=_positive, nargs=2, metavar=("LOW", "HIGH"),
-                   help="frequency range (Hz) of the FRF points fitted")
+    p.add_argument("--f-low", type=_positive, default=None, metavar="HZ",
+                   help="lowest frequency (Hz) of the FRF points fitted (default: all)")
+    p.add_argument("--f-high", type=_positive, default=None, metavar="HZ",
+                   help="highest frequency (Hz) of the FRF points fitted (default: all)")
     p.add_argument("--starts", type=_count, default=8, metavar="N",
                    help="multi-start points (Sobol, default 8)")
     p.add_argument("--workers", type=_count, default=None, metavar="N",
@@ -762,7 +793,8 @@ def _fit_run(args) -> int:
                 scheduler=args.scheduler, base=preset(args.preset), n_starts=args.starts,
                 workers=args.workers, seed=args.seed,
                 transfer_positions=args.transfer_positions,
-                f_range=tuple(args.f_range) if args.f_range else None,
+                f_range=(None if args.f_low is None and args.f_high is None else
+                         (args.f_low or 0.0, args.f_high or float("inf"))),
                 profiles=() if args.no_profiles else ("kp", "kb"),
                 command=" ".join(sys.argv))
     results = [s["result"]] if "result" in s else [r for r in s["rows"]]

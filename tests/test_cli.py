@@ -233,3 +233,26 @@ def test_timoshenko_discrete_uses_the_pad_length(tmp_path):
     a = read_frf_csv(point / "transfer_mobility.csv").values[:, 0, 0]
     b = read_frf_csv(pad / "transfer_mobility.csv").values[:, 0, 0]
     assert np.abs(b / a - 1).max() > 1e-3
+
+
+def test_one_frequency_syntax_and_one_loss_factor_name(tmp_path):
+    """Issue 10: --f-low/--f-high (and --n or --frequencies) and --eta-r mean the same on
+    every command that takes them; the older spellings still work."""
+    p = cli.build_parser()
+    a = p.parse_args(["dispersion", "--f-low", "100", "--f-high", "200", "--n", "3",
+                      "--eta-r", "0.02"])
+    b = p.parse_args(["dispersion", "--fmin", "100", "--fmax", "200", "--n", "3",
+                      "--loss-factor", "0.02"])
+    assert (a.fmin, a.fmax, a.loss_factor) == (b.fmin, b.fmax, b.loss_factor) == (100, 200, 0.02)
+    m = p.parse_args(["mobility", "--f-low", "100", "--f-high", "1000", "--n", "3",
+                      "--eta-r", "0.02"])
+    assert np.allclose(cli._mobility_frequencies(m), [100, 316.227766, 1000])
+    assert m.eta == 0.02
+    old = p.parse_args(["mobility", "--freq", "100:1000:3"])
+    assert np.allclose(cli._mobility_frequencies(old), [100, 316.227766, 1000])
+    assert cli.main(["mobility", "--f-low", "100", "--frequencies", "200",
+                     "--out", str(tmp_path / "m")]) == cli.EXIT_BAD_INPUT
+    for command in (["track"], ["passby"], ["tdr", "passby", "x.npz"], ["fit", "x"],
+                    ["roughness", "x.npz", "--track", "site"]):
+        args = p.parse_args(command + ["--f-low", "100", "--f-high", "200"])
+        assert (args.f_low, args.f_high) == (100, 200), command
