@@ -1,7 +1,7 @@
 """The ``railfem`` command line.
 
     railfem mesh --profile 60E1 --h 10 --out meshes/       mesh + quality summary
-    railfem mesh --shipped                                  regenerate meshes/ (60E1)
+    railfem mesh --shipped                                  regenerate railfem/data/meshes/ (60E1)
     railfem dispersion --profile 60E1 --h 10 --fmin 50 --fmax 5000 --n 100 --out DIR
     railfem dispersion --k-range 0.1 30 60 --out DIR        omega(k) instead of k(omega)
     railfem convergence --profile 60E1 --sizes 20 15 10 7.5 5 --frequencies 1000 --out DIR
@@ -95,7 +95,7 @@ def _mesh_args(p: argparse.ArgumentParser) -> None:
     _add_profile(p)
     p.add_argument("--out", type=Path, default=None, metavar="DIR",
                    help="output folder (default: current folder; with --shipped the "
-                        "package's meshes/ folder)")
+                        "package's railfem/data/meshes/ folder)")
     p.add_argument("--shipped", action="store_true",
                    help="regenerate all shipped meshes (60E1 at 20, 15, 10, 7.5, 5 mm); "
                         "--profile and --h are ignored")
@@ -211,7 +211,7 @@ def _convergence_args(p: argparse.ArgumentParser) -> None:
                         "their straight-sided twins, or both (straight in "
                         "convergence_straight.*)")
     p.add_argument("--shipped", action="store_true",
-                   help="use the shipped meshes (meshes/) where there is one for the size "
+                   help="use the shipped meshes (railfem/data/meshes/) where there is one for the size "
                         "instead of meshing afresh")
     p.add_argument("--out", type=Path, default=Path("railfem-output/convergence"),
                    metavar="DIR", help="output folder (default railfem-output/convergence)")

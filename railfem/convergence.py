@@ -185,7 +185,7 @@ def convergence_study(profile: RailProfile | str, sizes, *, frequencies=(), n_cu
     reference: "richardson" (default) or "finest".
     material: defaults to undamped steel (a loss factor would make every wave complex).
     use_shipped: take the shipped mesh when there is one for (profile, h); by default every
-    mesh is generated afresh so the study does not depend on the files in meshes/.
+    mesh is generated afresh so the study does not depend on the files in railfem/data/meshes/.
     curved: curved 6-node elements (default) or the straight-sided twins of the same
     triangulations (mid-side nodes at the chord midpoints).
     """

@@ -216,7 +216,7 @@ def run_mesh(profile, h: float, out_dir) -> dict:
 
 def run_shipped_meshes(out_dir=None, progress=None) -> list[dict]:
     """Regenerate the shipped meshes (60E1 at meshing.SHIPPED_H) in ``out_dir``
-    (default: the package's meshes/ folder)."""
+    (default: the package's railfem/data/meshes/ folder)."""
     out_dir = meshing.MESH_DIR if out_dir is None else Path(out_dir)
     results = []
     for i, h in enumerate(meshing.SHIPPED_H):

@@ -40,7 +40,7 @@ log = logging.getLogger(__name__)
 
 CORNER_ANGLE_DEG = 45.0  # a sharper turn at one outline point is a corner of the section
 STRAIGHT_ANGLE_DEG = 0.05  # a point turning less is inside a straight run
-MESH_DIR = Path(__file__).resolve().parents[1] / "meshes"
+MESH_DIR = Path(__file__).resolve().parent / "data" / "meshes"  # package data: works installed
 DEFAULT_PROFILE = "60E1"
 DEFAULT_H = 0.010  # m; default element size of the shipped mesh
 #: Shipped 60E1 meshes (m). 3.5 and 2.5 mm carry the convergence study below 5 mm, where

@@ -13,7 +13,7 @@
   sides, and continuity with light damping;
 * bad input, and the ``railfem mobility`` command.
 
-Measured numbers are quoted in the comments (60E1 meshes shipped in meshes/).
+Measured numbers are quoted in the comments (60E1 meshes shipped in railfem/data/meshes/).
 """
 import numpy as np
 import pytest
