@@ -170,6 +170,7 @@ def receptance(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE
     for o in outputs:
         if o not in WHERE:
             raise ValueError(f"output {o!r}: use 'head' or 'foot'")
+    _warn_validity(spec, f, fx, rx)
     store = kernelcache.resolve(cache)
     model = spec.model
     if model.endswith("discrete") and spec.uniform:
@@ -203,6 +204,35 @@ def _centring(spec, fx, rx):
     uf, jf = np.unique(np.round(fx[None, :] - c, 10), return_inverse=True)
     ur, jr = np.unique(np.round(rx[:, None] - c, 10), return_inverse=True)
     return uf, ur, jr.reshape(c.shape), jf.reshape(c.shape)
+
+
+#: Hz: above this the 60E1 section deforms (foot-flapping cut-on 5.0 kHz, its near field
+#: felt from ~2 kHz; head and foot responses part there): a beam model is out of its range
+BEAM_VALIDITY_HZ = 2000.0
+
+
+def _warn_validity(spec: TrackSpec, f, fx, rx) -> None:
+    """Say when a request leaves what the model can stand for (results are still given):
+    a beam above BEAM_VALIDITY_HZ, a WFE section mesh with too few elements per wavelength,
+    a discrete track asked for points beyond its supported stretch."""
+    if spec.model.startswith("timoshenko") and f.max() > BEAM_VALIDITY_HZ:
+        log.warning("%s up to %.4g Hz: a beam has no cross-section deformation; above about "
+                    "%g Hz the rail's foot and web deform (foot flapping cuts on at ~5 kHz on "
+                    "60E1) and head and foot responses differ: use a wfe-* model there",
+                    spec.model, f.max(), BEAM_VALIDITY_HZ)
+    if spec.model.startswith("wfe"):
+        waveguide.check_resolution(wfe_rail(spec.rail, spec.numerics.patch_width,
+                                            spec.numerics.n_foot_springs,
+                                            spec.numerics.foot_rule).guide, f.max())
+    if spec.model.endswith("discrete"):
+        reach = (spec.n_supports - 1) / 2 * spec.spacing
+        sep = np.abs(rx[:, None] - fx[None, :]).max()
+        # uniform tracks are re-centred on each pair: each point is sep/2 from the centre
+        span = sep / 2 if spec.uniform else max(np.abs(fx).max(), np.abs(rx).max())
+        if span > reach - 2 * spec.spacing:
+            log.warning("positions up to %.4g m from the centre of the %d supports (they reach "
+                        "+-%.4g m): beyond the supported stretch the rail is free; raise "
+                        "n_supports or use wfe-periodic", span, spec.n_supports, reach)
 
 
 def _centred_on_pairs(spec, f, fx, rx, outputs, store, progress):

@@ -199,3 +199,30 @@ def test_track_command_writes_readable_outputs(tmp_path):
     assert cli.main(["-q", "track", "--preset", "site", "--pad-length", "0", "--n-rows", "3",
                      "--out", str(tmp_path / "bad")]) == 2  # rows need a pad length
     assert not (tmp_path / "bad").exists()  # refused before any computing
+
+
+def test_requests_outside_a_models_range_are_flagged(caplog):
+    """Issue 10: a beam far above its range, a discrete track asked 1000 km away and a
+    section mesh too coarse for the frequency run, but say so."""
+    import logging
+
+    import railfem as rf
+
+    spec = rf.preset("site", model="timoshenko-discrete")
+    with caplog.at_level(logging.WARNING, logger="railfem.models"):
+        rf.receptance(spec, [100.0, 5000.0], [0.3], [0.3], cache=False)
+    assert "beam has no cross-section deformation" in caplog.text
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="railfem.models"):
+        rf.receptance(spec, [100.0], [0.3], [1.0e6], cache=False)
+    assert "beyond the supported stretch" in caplog.text
+    caplog.clear()
+    with caplog.at_level(logging.WARNING, logger="railfem.models"):
+        rf.receptance(spec, [100.0, 1000.0], [0.3], [5.0], cache=False)
+    assert caplog.text == ""  # inside every range: nothing said
+    from railfem import waveguide
+
+    guide = waveguide.assemble(meshing.get_mesh("60E1", 0.02))
+    with caplog.at_level(logging.WARNING, logger="railfem.waveguide"):
+        waveguide.check_resolution(guide, 1.0e6)
+    assert "elements per shortest" in caplog.text
