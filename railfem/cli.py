@@ -534,6 +534,68 @@ def _tdr_run(args) -> int:
     return 0
 
 
+# ------------------------------------------------------------ track parameters from data
+def _fit_args(p: argparse.ArgumentParser) -> None:
+    from .identify.fit import DEFAULT_PARAMETERS
+    from .spec import MODELS
+
+    p.add_argument("data", type=Path, metavar="DATA",
+                   help="hammer dataset folder / .toml descriptor, or a decay-rate table .csv")
+    p.add_argument("--model", choices=MODELS, default="wfe-discrete",
+                   help="track model (default wfe-discrete)")
+    p.add_argument("--use", default=None, metavar="Q,Q",
+                   help="quantities fitted: point,phase,transfer,tdr (default "
+                   "point,transfer,tdr for hammer data, tdr for a table)")
+    p.add_argument("--parameters", default=",".join(DEFAULT_PARAMETERS), metavar="P,P",
+                   help="parameters fitted: kp,eta_p,kb,eta_b,eta_r,ms,pad_length "
+                   f"(default {','.join(DEFAULT_PARAMETERS)})")
+    p.add_argument("--preset", default="site", help="spec whose other values are kept "
+                   "(Table 1 preset, default site; the data's sleeper spacing is used)")
+    p.add_argument("--row", type=_count, metavar="N", default=None,
+                   help="table: row N of the selection (0-based)")
+    p.add_argument("--select", default=None, metavar="K=V,...",
+                   help="table: rows matching e.g. dir=v,sec=B5 (keys dir, sec, date, rail)")
+    p.add_argument("--campaign", action="store_true",
+                   help="table: fit every selected row (on a Dask cluster)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="Dask scheduler address for --campaign (default: a local cluster)")
+    p.add_argument("--transfer-positions", type=_non_negative, nargs="+", metavar="M",
+                   help="hammer distances (m) of the transfers fitted (nearest measured)")
+    p.add_argument("--f-range", type=_positive, nargs=2, metavar=("LOW", "HIGH"),
+                   help="frequency range (Hz) of the FRF points fitted")
+    p.add_argument("--starts", type=_count, default=8, metavar="N",
+                   help="multi-start points (Sobol, default 8)")
+    p.add_argument("--workers", type=_count, default=None, metavar="N",
+                   help="parallel processes (default: all cores)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the start points")
+    p.add_argument("--no-profiles", action="store_true", help="skip the profile likelihoods")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/fit"), metavar="DIR",
+                   help="output folder (default railfem-output/fit)")
+
+
+def _fit_run(args) -> int:
+    from .fitjob import parse_use, run_fit
+    from .spec import preset
+
+    use = parse_use(args.use) if args.use else None
+    params = tuple(x.strip() for x in args.parameters.split(",") if x.strip())
+    s = run_fit(args.data, args.out, model=args.model, use=use, parameters=params,
+                select=args.select, row=args.row, campaign=args.campaign,
+                scheduler=args.scheduler, base=preset(args.preset), n_starts=args.starts,
+                workers=args.workers, seed=args.seed,
+                transfer_positions=args.transfer_positions,
+                f_range=tuple(args.f_range) if args.f_range else None,
+                profiles=() if args.no_profiles else ("kp", "kb"),
+                command=" ".join(sys.argv))
+    results = [s["result"]] if "result" in s else [r for r in s["rows"]]
+    for r in results:
+        for name, p in r["parameters"].items():
+            sys.stdout.write(f"{name} = {p['value']:.4g} [{p['ci95'][0]:.3g}, "
+                             f"{p['ci95'][1]:.3g}] identifiable: {p['identifiable']}\n")
+    sys.stdout.write(f"wrote {Path(args.out) / 'run.json'}\n")
+    return 0
+
+
 COMMANDS = {
     "mesh": (_mesh_args, _mesh_run, "mesh a rail profile and write a mesh-quality summary"),
     "dispersion": (_dispersion_args, _dispersion_run,
@@ -547,6 +609,7 @@ COMMANDS = {
     "tdr": (_tdr_args, _tdr_run, "track decay rate from measured or simulated data"),
     "passby": (_passby_args, _passby_run,
                "train pass-by: rail vibration from roughness, band levels, time signal"),
+    "fit": (_fit_args, _fit_run, "track parameters fitted to measured data, with uncertainty"),
 }
 
 

@@ -194,14 +194,19 @@ def receptance(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE
     return r.receptance[:, :, inv.reshape(sep.shape), 0]
 
 
-def _centred_on_pairs(spec, f, fx, rx, outputs, store, progress):
-    """Uniform discrete tracks: each pair (x_P, x_r) is computed as (x_P - c, x_r - c), c the
-    support nearest to their midpoint; one solve serves every pair."""
+def _centring(spec, fx, rx):
+    """Re-centred positions (uf, ur) and the gather (jr, jf) of _centred_on_pairs."""
     d = spec.spacing
     c = np.round((rx[:, None] + fx[None, :]) / (2 * d)) * d
     uf, jf = np.unique(np.round(fx[None, :] - c, 10), return_inverse=True)
     ur, jr = np.unique(np.round(rx[:, None] - c, 10), return_inverse=True)
-    jf, jr = jf.reshape(c.shape), jr.reshape(c.shape)
+    return uf, ur, jr.reshape(c.shape), jf.reshape(c.shape)
+
+
+def _centred_on_pairs(spec, f, fx, rx, outputs, store, progress):
+    """Uniform discrete tracks: each pair (x_P, x_r) is computed as (x_P - c, x_r - c), c the
+    support nearest to their midpoint; one solve serves every pair."""
+    uf, ur, jr, jf = _centring(spec, fx, rx)
     if spec.model == "timoshenko-discrete":
         a = _beam_discrete(spec, f, uf, ur, outputs, store)
     else:
@@ -209,12 +214,34 @@ def _centred_on_pairs(spec, f, fx, rx, outputs, store, progress):
     return a[:, :, jr, jf]
 
 
+def discrete_kernel(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE,
+                    cache=None, progress=None):
+    """The parameter-free kernel of a uniform discrete track (wfe-discrete or
+    timoshenko-discrete) for the fitter (railfem.identify): returns (kernel, jr, jf) such
+    that ``couple_discrete(kernel, K)[:, :, jr, jf]`` is ``receptance(spec, ...)``, with K
+    the (nf, n_sets) stiffness of spec.layout()'s spring sets. A beam kernel has one
+    output (the beam's deflection serves head and foot)."""
+    if spec.model not in ("wfe-discrete", "timoshenko-discrete") or not spec.uniform:
+        raise ValueError(f"discrete_kernel needs a uniform discrete model, got {spec.model!r}"
+                         + ("" if spec.uniform else " with deviations"))
+    f = _frequency(frequency)
+    fx = np.atleast_1d(np.asarray(force_x, dtype=float))
+    rx = np.atleast_1d(np.asarray(response_x, dtype=float))
+    uf, ur, jr, jf = _centring(spec, fx, rx)
+    store = kernelcache.resolve(cache)
+    if spec.model == "timoshenko-discrete":
+        kernel = _beam_discrete(spec, f, uf, ur, tuple(outputs), store, couple=False)
+    else:
+        kernel = _wfe_discrete(spec, f, uf, ur, tuple(outputs), store, progress, couple=False)
+    return kernel, jr, jf
+
+
 def _key(kind, spec, *parts):
     n = spec.numerics
     return kernelcache.content_key(kind, _version(), n.n_waves, n.tail, n.load_length, *parts)
 
 
-def _wfe_discrete(spec, f, fx, rx, outputs, store, progress):
+def _wfe_discrete(spec, f, fx, rx, outputs, store, progress, couple=True):
     rail = wfe_rail(spec.rail, spec.numerics.patch_width, spec.numerics.n_foot_springs)
     lay = spec.layout()
     xs = lay.springs().x
@@ -230,10 +257,12 @@ def _wfe_discrete(spec, f, fx, rx, outputs, store, progress):
                                      progress=progress).to_arrays()
 
     kernel = DiscreteKernel.from_arrays(store.cached(key, compute))
+    if not couple:
+        return kernel
     return couple_discrete(kernel, lay.spring_stiffness(2 * np.pi * f))
 
 
-def _beam_discrete(spec, f, fx, rx, outputs, store):
+def _beam_discrete(spec, f, fx, rx, outputs, store, couple=True):
     bs = beam_section(spec.rail)
     lay = spec.layout()
     xs = lay.springs().x
@@ -245,6 +274,8 @@ def _beam_discrete(spec, f, fx, rx, outputs, store):
                                      load_length=spec.numerics.load_length).to_arrays()
 
     kernel = DiscreteKernel.from_arrays(store.cached(key, compute))
+    if not couple:
+        return kernel
     a = couple_discrete(kernel, lay.spring_stiffness(w))
     return np.repeat(a, len(outputs), axis=1)
 

@@ -1,0 +1,560 @@
+"""Track parameters from measured data: bounded nonlinear least squares in dB (METHOD.md §7).
+
+    import railfem as rf
+    from railfem.identify import fit
+    meas = rf.io.read_measurement("site_b/")
+    result = fit(meas, model="wfe-discrete", use=("point", "transfer", "tdr"))
+    result.parameters          # estimates, 95 % intervals, identifiable yes/no/weak + reason
+
+The problem: minimise sum_g sum_i (r_gi / s_g)^2 over the parameter vector x of a
+railfem.params.ParameterSpace inside its box (scipy.optimize.least_squares, 'trf'), with
+r_g the residuals in dB of quantity g (railfem.identify.data) and s_g its residual scale:
+1 dB for the first pass, then each quantity's own residual RMS (so point mobility, transfers
+and decay rates count by how well each is fitted, not by how many numbers each has).
+
+* **Multi-start**: ``n_starts`` points of a scrambled Sobol sequence in the box (vector
+  units: log10 for stiffnesses, loss factors and the mass), run in parallel processes
+  (``workers``; BLAS pinned to one thread per process with threadpoolctl); the best is kept.
+* **Kernel parameters** (eta_r, pad_length; railfem.identify.forward.SLOW) change the
+  parameter-free kernel, so the fit does not differentiate through them: it profiles. The
+  support parameters are fitted at ``slow_nodes`` values spread over the slow parameter's
+  bounds, then the minimum of that profile is refined by parabolic steps (each a new
+  kernel) until it moves less than ``slow_tol`` (vector units) or ``slow_refine`` steps are
+  spent. The covariance then uses a finite-difference column for it.
+* **Uncertainty** (railfem.identify.uncertainty): covariance from the Jacobian at the
+  optimum scaled by the residual variance, 95 % intervals, correlations, identifiability;
+  profile likelihoods of the stiffnesses (kp, kb): the other parameters refitted on a grid
+  of fixed values (the kernel parameters held at their estimate).
+"""
+from __future__ import annotations
+
+import logging
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+from scipy.stats import qmc
+
+from railfem.identify import data as fdata
+from railfem.identify import uncertainty
+from railfem.identify.forward import ForwardModel, Geometry, slow_names
+from railfem.measurement import DecayRateMeasurement, HammerMeasurement
+from railfem.params import ParameterSpace
+from railfem.spec import TrackSpec, preset, spec_to_dict
+
+log = logging.getLogger(__name__)
+
+DEFAULT_PARAMETERS = ("kp", "eta_p", "kb", "eta_b", "eta_r")
+#: Search box of a fit (SI); wider than any track of METHOD.md Table 1.
+FIT_BOUNDS = {
+    "kp": (1e7, 1e10), "eta_p": (0.01, 2.0), "kb": (5e6, 2e9), "eta_b": (0.02, 5.0),
+    "eta_r": (1e-3, 0.3), "ms": (30.0, 600.0), "pad_length": (0.0, 0.3),
+}
+PROFILED = ("kp", "kb")
+CHI2_95 = 3.841  # chi-square(1) 95 % quantile: the profile-likelihood threshold
+SLOW_STEP = {"timoshenko": 1e-4, "wfe": 0.02}  # finite-difference step of a kernel parameter
+
+
+@dataclass
+class Problem:
+    """Target + forward model + residual scales: residual(x) is what least_squares sees."""
+
+    target: fdata.Target
+    forward: ForwardModel
+    scale: dict = field(default_factory=dict)
+
+    def groups(self, x) -> dict:
+        return fdata.residuals(self.target, self.forward.receptance(x))
+
+    def residual(self, x) -> np.ndarray:
+        g = self.groups(x)
+        return np.concatenate([g[q] / self.scale.get(q, 1.0) for q in self.target.use])
+
+    def cost(self, x) -> float:
+        r = self.residual(x)
+        return float(r @ r)
+
+
+def _solve(problem: Problem, x0, free, *, max_nfev=None):
+    """least_squares over the entries ``free`` of x (the others held at x0)."""
+    x0 = np.asarray(x0, dtype=float)
+    lo, hi = problem.forward.space.lower, problem.forward.space.upper
+    free = np.asarray(free, dtype=bool)
+
+    def fun(z):
+        x = x0.copy()
+        x[free] = z
+        return problem.residual(x)
+
+    z0 = np.clip(x0[free], lo[free], hi[free])
+    res = least_squares(fun, z0, bounds=(lo[free], hi[free]), method="trf", x_scale=1.0,
+                        xtol=1e-12, ftol=1e-12, gtol=1e-12,
+                        max_nfev=max_nfev or 100 * (int(free.sum()) + 1))
+    x = x0.copy()
+    x[free] = res.x
+    return x, float(2 * res.cost), int(res.nfev)
+
+
+# ------------------------------------------------------------------ parallel processes
+
+_WORKER: dict = {}
+
+
+def _init_worker(problem):
+    from threadpoolctl import threadpool_limits
+
+    _WORKER["problem"] = problem
+    _WORKER["limits"] = threadpool_limits(1)  # kept alive for the worker's lifetime
+
+
+def _run(task):
+    fn, args = task
+    return fn(_WORKER["problem"], *args)
+
+
+def _start(problem, x0, free):
+    t = time.perf_counter()
+    x, cost, nfev = _solve(problem, x0, free)
+    return {"x0": np.asarray(x0).tolist(), "x": x.tolist(), "cost": cost, "nfev": nfev,
+            "seconds": time.perf_counter() - t}
+
+
+def _profile_point(problem, x_hat, i, value, free):
+    x0 = np.array(x_hat, dtype=float)
+    x0[i] = value
+    f = np.array(free, dtype=bool)
+    f[i] = False
+    x, cost, _ = _solve(problem, x0, f)
+    return {"value": float(value), "cost": cost, "x": x.tolist()}
+
+
+def default_workers() -> int:
+    return max(1, min(os.cpu_count() or 1, 8))
+
+
+def run_tasks(problem: Problem, fn, arglist, workers: int, what: str):
+    """fn(problem, *args) for every args, in ``workers`` processes (1: here), logged."""
+    out = [None] * len(arglist)
+    t0 = time.perf_counter()
+    if workers <= 1 or len(arglist) <= 1:
+        for k, args in enumerate(arglist):
+            out[k] = fn(problem, *args)
+            log.info("fit: %s %d/%d done (%.1f s)", what, k + 1, len(arglist),
+                     time.perf_counter() - t0)
+        return out
+    from concurrent.futures import as_completed
+
+    with ProcessPoolExecutor(max_workers=min(workers, len(arglist)), initializer=_init_worker,
+                             initargs=(problem,)) as pool:
+        futs = {pool.submit(_run, (fn, args)): k for k, args in enumerate(arglist)}
+        for n, fut in enumerate(as_completed(futs), 1):
+            out[futs[fut]] = fut.result()
+            log.info("fit: %s %d/%d done (%.1f s)", what, n, len(arglist),
+                     time.perf_counter() - t0)
+    return out
+
+
+# ------------------------------------------------------------------ the fit
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class FitResult:
+    """A fitted track: spec, estimates with 95 % intervals and identifiability, residuals.
+
+    parameters: one dict per parameter (name, unit, value, ci95, identifiable, reason, ...).
+    correlation: (p, p). residual_rms: {quantity: RMS dB}; residual_bands: {quantity:
+    per-band RMS dB per sensor}. starts: the multi-start runs. profiles: {name: profile}.
+    slow_profile: the kernel-parameter profile (values, costs) or None."""
+
+    model: str
+    spec: TrackSpec
+    names: tuple[str, ...]
+    x: np.ndarray
+    cost: float
+    parameters: list
+    correlation: np.ndarray
+    analysis: dict
+    residual_rms: dict
+    residual_bands: dict
+    scale: dict
+    starts: list
+    profiles: dict
+    slow_profile: dict | None
+    target: fdata.Target
+    receptance: np.ndarray
+    seconds: dict
+
+    def parameter(self, name: str) -> dict:
+        for p in self.parameters:
+            if p["name"] == name:
+                return p
+        raise KeyError(f"no fitted parameter {name!r}; fitted: {self.names}")
+
+    def identifiable(self) -> dict:
+        return {p["name"]: p["identifiable"] for p in self.parameters}
+
+    def to_dict(self) -> dict:
+        """JSON-ready summary (what fit.json holds)."""
+        from railfem import __version__
+
+        return {
+            "railfem_version": __version__, "model": self.model, "names": list(self.names),
+            "parameters": self.parameters, "correlation": self.correlation.tolist(),
+            "singular_values": self.analysis["singular_values"],
+            "residual_variance": self.analysis["residual_variance"],
+            "dof": self.analysis["dof"], "residual_rms_db": self.residual_rms,
+            "residual_rms_per_band_db": self.residual_bands, "residual_scale_db": self.scale,
+            "data": {"description": self.target.description, "use": list(self.target.use),
+                     "sensors": list(self.target.outputs),
+                     "frequency_hz": [float(self.target.frequency[0]),
+                                      float(self.target.frequency[-1])],
+                     "n_frequencies": int(len(self.target.frequency)),
+                     "positions_m": self.target.positions.tolist(),
+                     "transfer_positions_m":
+                         self.target.positions[self.target.transfer_index].tolist()},
+            "spec": spec_to_dict(self.spec), "cost": self.cost,
+            "starts": self.starts, "profiles": self.profiles,
+            "slow_profile": self.slow_profile, "seconds": self.seconds,
+            "identifiability_rules": uncertainty.__doc__.split("Identifiability")[1].strip(),
+        }
+
+
+def base_spec(data, model: str, base: TrackSpec | None = None) -> TrackSpec:
+    """The spec the fit starts from: ``base`` or the 'site' preset, with the model and the
+    measurement's sleeper spacing."""
+    spec = base if base is not None else preset("site")
+    spacing = getattr(data, "sleeper_spacing", None)
+    changes = {"model": model}
+    if spacing is not None and abs(spacing - spec.spacing) > 1e-12:
+        changes["spacing"] = float(spacing)
+    return spec.replace(**changes)
+
+
+def make_target(data, *, use=None, spacing: float | None = None, **options) -> fdata.Target:
+    """A Target from a HammerMeasurement, a DecayRateMeasurement or a Target."""
+    if isinstance(data, fdata.Target):
+        return data
+    if isinstance(data, HammerMeasurement):
+        return fdata.hammer_target(data, use=tuple(use or ("point", "transfer", "tdr")),
+                                   **options)
+    if isinstance(data, DecayRateMeasurement):
+        if use is not None and tuple(use) != ("tdr",):
+            raise ValueError(f"a decay-rate measurement holds only 'tdr', use = {use!r}")
+        if spacing is None:
+            raise ValueError("fitting a decay rate needs the sleeper spacing (m)")
+        return fdata.decay_rate_target(data, spacing, **options)
+    raise TypeError(f"cannot fit {type(data).__name__}: give a HammerMeasurement, a "
+                    "DecayRateMeasurement or a railfem.identify.data.Target")
+
+
+def fit(data, model: str = "wfe-discrete", *, parameters=DEFAULT_PARAMETERS, base=None,
+        bounds=None, use=None, n_starts: int = 8, seed: int = 0, workers: int | None = None,
+        cache=None, profiles=PROFILED, profile_points: int = 11, slow_nodes: int | None = None,
+        slow_refine: int | None = None, slow_tol: float = 1e-5, reweight: bool = True,
+        forward: ForwardModel | None = None, target_options=None) -> FitResult:
+    """Fit the track parameters ``parameters`` of ``model`` to ``data``.
+
+    data: HammerMeasurement, DecayRateMeasurement (needs base or the default spacing) or
+    Target. base: the TrackSpec whose other values are kept (default the 'site' preset with
+    the measurement's spacing). bounds: {name: (low, high)} SI, overriding FIT_BOUNDS.
+    use: quantities (railfem.identify.data.QUANTITIES). workers: processes (default all
+    cores, 1 = serial). cache: kernel cache (railfem.models). profiles: parameters to
+    profile. slow_nodes / slow_refine: kernel-parameter profile (defaults: 7 / 8 for the
+    beam models, 4 / 1 for the WFE models). forward: a prepared ForwardModel (reused across
+    fits of the same geometry, e.g. a campaign). target_options: passed to
+    railfem.identify.data.hammer_target / decay_rate_target."""
+    t_start = time.perf_counter()
+    spec0 = base_spec(data, model, base)
+    if forward is None:
+        names = tuple(parameters)
+        b = {n: (bounds or {}).get(n, FIT_BOUNDS[n]) for n in names if n in FIT_BOUNDS}
+        b.update({n: v for n, v in (bounds or {}).items() if n not in b})
+        space = ParameterSpace(spec0, names, bounds=b)
+        target = make_target(data, use=use, spacing=spec0.spacing, **(target_options or {}))
+        geometry = Geometry(frequency=target.frequency, outputs=target.outputs,
+                            sensor_x=target.sensor_x, force_x=target.force_x)
+        forward = ForwardModel(space, geometry, cache=cache)
+    else:
+        space = forward.space
+        target = make_target(data, use=use, spacing=space.base.spacing,
+                             **(target_options or {}))
+        g = forward.geometry
+        if (len(g.frequency) != len(target.frequency)
+                or np.any(g.frequency != target.frequency)
+                or g.outputs != target.outputs or np.any(g.force_x != target.force_x)):
+            raise ValueError("the forward model was prepared for another geometry or "
+                             "frequency grid than these data")
+    workers = default_workers() if workers is None else int(workers)
+    problem = Problem(target=target, forward=forward)
+    names = space.names
+    lo, hi = space.lower, space.upper
+    slow = slow_names(space)
+    if len(slow) > 1:
+        raise ValueError(f"fit at most one kernel parameter at a time, got {slow}; fix the "
+                         "others in base")
+    beam = space.base.model.startswith("timoshenko")
+    slow_nodes = slow_nodes or (7 if beam else 4)
+    slow_refine = (8 if beam else 1) if slow_refine is None else slow_refine
+    seconds = {}
+
+    free = np.array([n not in slow for n in names])
+    sobol = qmc.Sobol(d=len(names), scramble=True, seed=seed)
+    u = sobol.random(max(int(n_starts), 1))
+    starts = lo + (0.02 + 0.96 * u) * (hi - lo)
+    x_base = np.clip(space.from_spec(space.base), lo, hi)
+
+    slow_profile = None
+    t = time.perf_counter()
+    if not slow:
+        runs = run_tasks(problem, _start, [(s, free) for s in starts], workers, "start")
+        best = min(runs, key=lambda r: r["cost"])
+        x_hat = np.array(best["x"])
+    else:
+        x_hat, runs, slow_profile = _fit_with_slow(problem, starts, free, slow[0], slow_nodes,
+                                                   slow_refine, slow_tol, workers, x_base)
+    seconds["starts"] = time.perf_counter() - t
+
+    if reweight and len(target.use) > 1:
+        groups = problem.groups(x_hat)
+        n_tot = sum(len(v) for v in groups.values())
+        rms = {q: float(np.sqrt(np.sum(v ** 2) / max(len(v) * (1 - len(names) / n_tot), 1)))
+               for q, v in groups.items()}
+        top = max(rms.values())
+        problem.scale = {q: max(s, 1e-6 * top, 1e-12) for q, s in rms.items()}
+        x_hat, _, _ = _solve(problem, x_hat, free)
+    t = time.perf_counter()
+    J = jacobian(problem, x_hat, slow, beam)
+    r = problem.residual(x_hat)
+    seconds["jacobian"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    analysis0 = uncertainty.analyse(space, x_hat, J, r)
+    prof = {}
+    todo = [n for n in profiles if n in names and n not in slow]
+    if todo and profile_points > 1:
+        prof = profile(problem, x_hat, analysis0, todo, profile_points, free, workers)
+    if slow_profile is not None:  # the profile's costs under the final residual scales
+        slow_profile["cost"] = [problem.cost(np.array(x)) for x in slow_profile["x"]]
+        prof[slow[0]] = _slow_profile_summary(slow_profile, float(r @ r),
+                                              analysis0["residual_variance"], space, slow[0])
+    analysis = uncertainty.analyse(space, x_hat, J, r, prof)
+    seconds["profiles"] = time.perf_counter() - t
+    seconds["total"] = time.perf_counter() - t_start
+
+    receptance = forward.receptance(x_hat)
+    table = fdata.residual_table(target, receptance)
+    residual_rms = {q: float(np.sqrt(np.nanmean(v ** 2))) for q, v in table.items()}
+    residual_bands = band_rms(target, table)
+    log.info("fit %s: cost %.4g, residual RMS %s dB, %.1f s", model, float(r @ r),
+             {q: round(v, 3) for q, v in residual_rms.items()}, seconds["total"])
+    return FitResult(model=model, spec=space.to_spec(x_hat), names=names, x=x_hat,
+                     cost=float(r @ r), parameters=analysis["parameters"],
+                     correlation=np.array(analysis["correlation"]), analysis=analysis,
+                     residual_rms=residual_rms, residual_bands=residual_bands,
+                     scale=dict(problem.scale), starts=runs, profiles=prof,
+                     slow_profile=slow_profile, target=target, receptance=receptance,
+                     seconds=seconds)
+
+
+def jacobian(problem: Problem, x: np.ndarray, slow=(), beam: bool = True) -> np.ndarray:
+    """dr/dx at x: central differences (step 1e-6 in vector units) for the support
+    parameters; a forward difference of SLOW_STEP for a kernel parameter (each step is a
+    new kernel)."""
+    names = problem.forward.space.names
+    lo, hi = problem.forward.space.lower, problem.forward.space.upper
+    r0 = problem.residual(x)
+    J = np.empty((len(r0), len(x)))
+    for i, n in enumerate(names):
+        h = (SLOW_STEP["timoshenko" if beam else "wfe"] if n in slow else 1e-6)
+        if n in slow:
+            sgn = 1.0 if x[i] + h <= hi[i] else -1.0
+            step = sgn * h
+            if not beam:  # reuse a built kernel node within 0.35 decades (one-sided)
+                near = [v for v in problem.forward.slow_values(i) if 0 < abs(v - x[i]) <= 0.35]
+                if near:
+                    step = min(near, key=lambda v: abs(v - x[i])) - x[i]
+            xp = x.copy()
+            xp[i] += step
+            J[:, i] = (problem.residual(xp) - r0) / step
+            continue
+        a, b = max(x[i] - h, lo[i]), min(x[i] + h, hi[i])
+        xa, xb = x.copy(), x.copy()
+        xa[i], xb[i] = a, b
+        J[:, i] = (problem.residual(xb) - problem.residual(xa)) / (b - a)
+    return J
+
+
+def _fit_with_slow(problem, starts, free, name, n_nodes, n_refine, tol, workers, x_base):
+    """Profile over the kernel parameter ``name``: multi-start at the middle node, warm
+    starts outward, then parabolic refinement of the profile minimum."""
+    space = problem.forward.space
+    i = space.names.index(name)
+    lo, hi = space.lower[i], space.upper[i]
+    nodes = np.linspace(lo, hi, n_nodes + 2)[1:-1] if n_nodes > 1 else np.array([x_base[i]])
+    prebuild_nodes(problem, nodes, i, x_base, workers)
+    mid = len(nodes) // 2
+    order = [mid] + [k for d in range(1, len(nodes)) for k in (mid - d, mid + d)
+                     if 0 <= k < len(nodes)]
+    done: dict = {}
+    runs = []
+    for k in order:
+        s = nodes[k]
+        if not done:
+            xs = np.array(starts)
+            xs[:, i] = s
+            runs = run_tasks(problem, _start, [(x0, free) for x0 in xs], workers,
+                             f"start ({name} = {space.parameters[i].decode(s):.4g})")
+            best = min(runs, key=lambda r: r["cost"])
+            done[s] = (best["cost"], np.array(best["x"]))
+            continue
+        near = min(done, key=lambda v: abs(v - s))
+        x0 = done[near][1].copy()
+        x0[i] = s
+        x, cost, _ = _solve(problem, x0, free)
+        done[s] = (cost, x)
+        log.info("fit: %s = %.4g: cost %.5g", name, space.parameters[i].decode(s), cost)
+    for _ in range(n_refine):
+        s_new = _parabola_step(done, lo, hi)
+        if s_new is None or min(abs(s_new - v) for v in done) < tol:
+            break
+        near = min(done, key=lambda v: abs(v - s_new))
+        x0 = done[near][1].copy()
+        x0[i] = s_new
+        x, cost, _ = _solve(problem, x0, free)
+        done[s_new] = (cost, x)
+        log.info("fit: refine %s = %.6g: cost %.6g", name, space.parameters[i].decode(s_new),
+                 cost)
+    s_best = min(done, key=lambda v: done[v][0])
+    vals = sorted(done)
+    profile_ = {"name": name, "vector": [float(v) for v in vals],
+                "value": [space.parameters[i].decode(v) for v in vals],
+                "cost": [done[v][0] for v in vals], "x": [done[v][1].tolist() for v in vals]}
+    return done[s_best][1], runs, profile_
+
+
+def _parabola_step(done: dict, lo: float, hi: float):
+    """Vertex of the parabola through the best point and its two evaluated neighbours."""
+    s = np.array(sorted(done))
+    c = np.array([done[v][0] for v in s])
+    k = int(np.argmin(c))
+    if len(s) < 3:
+        return None
+    k = min(max(k, 1), len(s) - 2)
+    x3, y3 = s[k - 1:k + 2], c[k - 1:k + 2]
+    A = np.vstack([x3 ** 2, x3, np.ones(3)]).T
+    a, b, _ = np.linalg.solve(A, y3)
+    if a <= 0:  # not convex here: step to the better edge of the bracket
+        return float(x3[np.argmin(y3)])
+    v = -b / (2 * a)
+    return float(np.clip(v, max(lo, x3[0]), min(hi, x3[2])))
+
+
+def prebuild_nodes(problem, nodes, i, x_base, workers):
+    """Build the engines of the kernel-parameter nodes (in parallel processes)."""
+    fwd = problem.forward
+    if fwd.kind != "spectral":
+        return
+    xs = []
+    for s in nodes:
+        x = x_base.copy()
+        x[i] = s
+        xs.append(x)
+    if workers <= 1:
+        for x in xs:
+            fwd.engine(fwd.spec(x))
+        return
+    engines = run_tasks(problem, _engine_task, [(x,) for x in xs], workers, "kernel")
+    for e in engines:
+        fwd.add_engine(e)
+
+
+def _engine_task(problem, x):
+    fwd = problem.forward
+    return fwd.engine(fwd.spec(x))
+
+
+def profile(problem, x_hat, analysis, names, n_points, free, workers) -> dict:
+    """Profile likelihoods: for each name, the others refitted on a grid of fixed values
+    around the estimate (+- max(2.5 x the 95 % half-width, 0.3 decades), inside the box)."""
+    space = problem.forward.space
+    c0 = problem.cost(x_hat)
+    s2 = analysis["residual_variance"]
+    tasks, where = [], []
+    grids = {}
+    for n in names:
+        i = space.names.index(n)
+        p = analysis["parameters"][i]
+        half = analysis["t_quantile"] * p["std_vector"]
+        span = max(2.5 * half if np.isfinite(half) else 0.0, 0.3)
+        grid = np.linspace(max(x_hat[i] - span, space.lower[i]),
+                           min(x_hat[i] + span, space.upper[i]), n_points)
+        grids[n] = grid
+        for v in grid:
+            tasks.append((x_hat, i, v, free))
+            where.append(n)
+    out = run_tasks(problem, _profile_point, tasks, workers, "profile point")
+    result = {}
+    for n in names:
+        i = space.names.index(n)
+        pts = [o for o, w in zip(out, where) if w == n]
+        vec = np.array([o["value"] for o in pts])
+        cost = np.array([o["cost"] for o in pts])
+        dchi = (cost - min(c0, cost.min())) / max(s2, 1e-300)
+        result[n] = _profile_summary(space, i, vec, cost, dchi)
+    return result
+
+
+def _profile_summary(space, i, vec, cost, dchi) -> dict:
+    p = space.parameters[i]
+    k = int(np.argmin(dchi))
+    low_open = dchi[0] < CHI2_95
+    high_open = dchi[-1] < CHI2_95
+    ci = [p.decode(vec[0]) if low_open else p.decode(_crossing(vec[:k + 1][::-1],
+                                                               dchi[:k + 1][::-1])),
+          p.decode(vec[-1]) if high_open else p.decode(_crossing(vec[k:], dchi[k:]))]
+    open_ = "both" if low_open and high_open else "low" if low_open else \
+        "high" if high_open else None
+    return {"name": p.name, "vector": vec.tolist(), "value": [p.decode(v) for v in vec],
+            "cost": cost.tolist(), "delta_chi2": dchi.tolist(), "ci95": ci, "open": open_}
+
+
+def _slow_profile_summary(sp, c_best, s2, space, name) -> dict:
+    i = space.names.index(name)
+    vec = np.array(sp["vector"])
+    cost = np.array(sp["cost"])
+    return _profile_summary(space, i, vec, cost, (cost - min(c_best, cost.min())) / max(s2, 1e-300))
+
+
+def _crossing(x, y) -> float:
+    """First x where y (starting below CHI2_95) reaches CHI2_95, linearly interpolated."""
+    for j in range(1, len(x)):
+        if y[j] >= CHI2_95:
+            if y[j - 1] >= CHI2_95 or y[j] == y[j - 1]:
+                return float(x[j - 1])
+            return float(x[j - 1] + (CHI2_95 - y[j - 1]) * (x[j] - x[j - 1]) / (y[j] - y[j - 1]))
+    return float(x[-1])
+
+
+def band_rms(target: fdata.Target, table: dict) -> dict:
+    """Per quantity and sensor, the RMS residual (dB) in each one-third-octave band."""
+    out = {}
+    centres = target.bands.nominal
+    for q, v in table.items():
+        rows = {}
+        for o, sensor in enumerate(target.outputs):
+            vals = []
+            for k, (a, b) in enumerate(zip(target.bands.lower, target.bands.upper)):
+                if q == "tdr":
+                    x = v[k, o]
+                    vals.append(None if not np.isfinite(x) else float(abs(x)))
+                    continue
+                m = (target.frequency >= a) & (target.frequency < b)
+                sel = v[m, o].ravel()
+                sel = sel[np.isfinite(sel)]
+                vals.append(float(np.sqrt(np.mean(sel ** 2))) if sel.size else None)
+            rows[sensor] = vals
+        out[q] = {"band_hz": centres.tolist(), **rows}
+    return out

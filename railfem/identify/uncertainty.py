@@ -1,0 +1,121 @@
+"""Uncertainty and identifiability of a least-squares fit (linearised at the optimum).
+
+With r the weighted residual vector (N entries) and J = dr/dx at the optimum (x the
+parameter vector: log10 of stiffnesses, masses and loss factors, metres for a length),
+
+    s^2 = |r|^2 / (N - p),   C = s^2 (J^T J)^-1,   rho_ij = C_ij / sqrt(C_ii C_jj)
+
+and the 95 % interval of x_i is x_i +- t_(0.975, N-p) sqrt(C_ii), mapped back to SI (a
+multiplicative interval for log-scale parameters). J^T J is inverted through the SVD of J
+with singular values below 1e-10 of the largest dropped (their directions carry no
+information; the affected parameters are reported not identifiable).
+
+Identifiability (railfem's rules, stated in every report):
+
+* **no**: the estimate sits on a bound of the search box; or the parameter lies mostly
+  (share > 0.5 of its variance) along a direction with a singular value below 1e-4 of the
+  largest; or its 95 % half-width exceeds 1 decade (a factor 10) for a log-scale parameter
+  (half the bound width for a linear one); or its profile stays within the 95 % threshold
+  over the whole profiled range;
+* **weak**: a 95 % half-width above 0.3 decades (a factor 2), or a correlation |rho| > 0.95
+  with another parameter, or a profile open on one side;
+* **yes** otherwise.
+"""
+from __future__ import annotations
+
+import numpy as np
+from scipy import stats
+
+NULL_RATIO = 1e-4
+DROP_RATIO = 1e-10
+WEAK_HALF_WIDTH = 0.3  # decades
+NO_HALF_WIDTH = 1.0  # decades
+WEAK_CORRELATION = 0.95
+BOUND_TOL = 1e-6  # in vector units
+
+
+def covariance(J: np.ndarray, r: np.ndarray):
+    """(C, s2, dof, singular values, V) of the linearised fit."""
+    n, p = J.shape
+    dof = max(n - p, 1)
+    s2 = float(r @ r) / dof
+    U, sv, Vt = np.linalg.svd(J, full_matrices=False)
+    keep = sv > DROP_RATIO * sv.max() if sv.size and sv.max() > 0 else np.zeros(p, bool)
+    inv = np.where(keep, 1.0 / np.where(keep, sv, 1.0) ** 2, 0.0)
+    C = (Vt.T * inv) @ Vt * s2
+    big = np.where(keep, 0.0, np.inf)  # dropped directions: unbounded variance
+    C_diag = np.diag(C) + (Vt.T ** 2 @ big)
+    return C, C_diag, s2, dof, sv, Vt
+
+
+def correlation(C: np.ndarray) -> np.ndarray:
+    d = np.sqrt(np.clip(np.diag(C), 0, None))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rho = C / np.outer(d, d)
+    rho[~np.isfinite(rho)] = 0.0
+    np.fill_diagonal(rho, 1.0)
+    return np.clip(rho, -1.0, 1.0)
+
+
+def analyse(space, x: np.ndarray, J: np.ndarray, r: np.ndarray, profiles=None) -> dict:
+    """Per-parameter estimates, 95 % intervals and identifiability, the correlation matrix
+    and the singular values; ``profiles``: {name: profile dict (railfem.identify.fit)}."""
+    C, C_diag, s2, dof, sv, Vt = covariance(J, r)
+    t = float(stats.t.ppf(0.975, dof))
+    rho = correlation(C)
+    lo, hi = space.lower, space.upper
+    null = sv < NULL_RATIO * sv.max() if sv.size else np.zeros(0, bool)
+    # share of each parameter's variance that lies along near-null directions
+    with np.errstate(divide="ignore", invalid="ignore"):
+        w = (Vt.T ** 2) / np.where(sv > 0, sv, np.inf)[None, :] ** 2
+        share = (w[:, null].sum(axis=1) / w.sum(axis=1)) if null.any() else np.zeros(len(x))
+    share = np.nan_to_num(share, nan=1.0)
+    params = []
+    for i, p in enumerate(space.parameters):
+        sd = float(np.sqrt(C_diag[i])) if np.isfinite(C_diag[i]) else float("inf")
+        half = t * sd
+        a, b = x[i] - half, x[i] + half
+        entry = {"name": p.name, "unit": p.unit, "scale": "log10" if p.log else "linear",
+                 "value": p.decode(x[i]), "vector": float(x[i]), "std_vector": sd,
+                 "ci95": [_decode(p, a), _decode(p, b)]}
+        limit_no = NO_HALF_WIDTH if p.log else 0.5 * (hi[i] - lo[i])
+        limit_weak = WEAK_HALF_WIDTH if p.log else 0.1 * (hi[i] - lo[i])
+        others = [(abs(rho[i, j]), space.names[j]) for j in range(len(x)) if j != i]
+        worst = max(others) if others else (0.0, "")
+        status, reason = "yes", f"95 % half-width {_width(p, half)}"
+        prof = (profiles or {}).get(p.name)
+        if min(x[i] - lo[i], hi[i] - x[i]) < BOUND_TOL:
+            status, reason = "no", "the estimate is on a bound of the search box"
+        elif share[i] > 0.5:
+            status, reason = "no", (f"{share[i]:.0%} of its variance lies along directions "
+                                    f"with singular value < {NULL_RATIO:g} of the largest")
+        elif not half < limit_no:
+            status, reason = "no", f"95 % half-width {_width(p, half)}: the data do not fix it"
+        elif prof is not None and prof.get("open") == "both":
+            status, reason = "no", "its profile stays below the 95 % threshold over the range"
+        elif half > limit_weak:
+            status, reason = "weak", f"95 % half-width {_width(p, half)}"
+        elif worst[0] > WEAK_CORRELATION:
+            status, reason = "weak", f"correlation {worst[0]:.3f} with {worst[1]}"
+        elif prof is not None and prof.get("open") in ("low", "high"):
+            status, reason = "weak", f"its profile is open on the {prof['open']} side"
+        entry.update(identifiable=status, reason=reason,
+                     max_correlation={"with": worst[1], "rho": float(worst[0])})
+        params.append(entry)
+    return {"parameters": params, "correlation": rho.tolist(), "names": list(space.names),
+            "singular_values": sv.tolist(), "residual_variance": s2, "dof": dof,
+            "t_quantile": t, "covariance_vector": np.where(np.isfinite(C), C, np.nan).tolist()}
+
+
+def _decode(p, x: float) -> float:
+    if p.log:
+        x = float(np.clip(x, -300, 300))
+    return p.decode(x)
+
+
+def _width(p, half: float) -> str:
+    if not np.isfinite(half):
+        return "unbounded"
+    if p.log:
+        return f"{half:.3g} decades (factor {10 ** min(half, 300):.3g})"
+    return f"{half:.3g} {p.unit}"
