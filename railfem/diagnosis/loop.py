@@ -50,6 +50,7 @@ ALPHA = 0.01
 MIN_GAIN = 0.10
 DELTA_BIC = 10.0
 BOUND_MARGIN = 0.01
+WFE_ETA_R_STEPS = 1
 COVARIATE_SPREAD = {"temperature_c": 5.0, "static_load_kn": 10.0}
 
 
@@ -83,6 +84,10 @@ def applicable(effect, data: DiagnosisData, model: str):
     for need in effect.needs:
         if need == "discrete" and model.endswith("continuous"):
             return False, f"needs discrete supports (model {model})"
+        if need == "deviations" and model.startswith("wfe"):
+            return False, ("a deviating support needs the full coupling solve of the WFE "
+                           "track per evaluation (seconds, hundreds of them): diagnose with "
+                           "timoshenko-discrete for this effect")
         if need == "hammer" and "hammer" not in data.kinds:
             return False, "needs hammer FRFs (the data are decay rates only)"
         if need.startswith("covariate:"):
@@ -225,13 +230,17 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
         start_target = replace(start_target, use=tuple(q for q in start_target.use
                                                        if q != "transfer"))
     fr = identify_fit(start_target, model, parameters=BASE + ("eta_r",), base=spec0,
-                      n_starts=n_starts, workers=workers, cache=cache, profiles=(), seed=seed)
+                      n_starts=n_starts, workers=workers, cache=cache, profiles=(), seed=seed,
+                      slow_nodes=None if model.startswith("wfe") else 3,
+                      slow_refine=None if model.startswith("wfe") else 2)  # a start
     spec_b = spec0.replace(eta_r=fr.spec.rail.eta)
     x0 = np.array([math.log10(getattr(fr.spec.support, n)) for n in BASE])
     scale = noise_scale(Problem(data=data, evaluator=ev, spec=spec_b, scale={}), x0)
+    wfe = model.startswith("wfe")
+    steps = WFE_ETA_R_STEPS if wfe else None  # every step is a kernel: tens of s for WFE
     base_o = refit(data, ev, spec_b, (), x0, scale)
-    if profile_final:
-        base_o = profile_eta_r(data, ev, spec_b, (), base_o, scale)
+    if profile_final and not wfe:  # WFE: the base fit's own profile (its kernels) stands
+        base_o = profile_eta_r(data, ev, spec_b, (), base_o, scale, max_steps=steps)
     spec_b = spec_b.replace(eta_r=base_o.eta_r)
     x_base = base_o.x[:len(BASE)]
     pred_base = base_o.problem.predict(base_o.x)
@@ -253,6 +262,8 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
             skipped[e.name] = f"refit failed: {exc}"
             log.warning("diagnosis: %s failed: %s", e.name, exc)
             continue
+        if profile_final and not wfe:  # the base's rail loss absorbed part of the effect
+            o = profile_eta_r(data, ev, spec_b, (e,), o, scale, max_steps=6, refine=False)
         gate = held_gate(base_o, o, pred_ref=pred_base)
         ok, why = plausibility(o)
         row = _row(o, base_o, base_o, gate, ok, why)
@@ -279,6 +290,9 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
                 try:
                     gv = dict(grid_values(ea, data), **grid_values(eb, data))
                     o = refit(data, ev, spec_b, (ea, eb), x_base, scale, grid_values=gv)
+                    if profile_final and not wfe:
+                        o = profile_eta_r(data, ev, spec_b, (ea, eb), o, scale, max_steps=6,
+                                          refine=False)
                 except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
                     log.warning("diagnosis: pair %s+%s failed: %s", ea.name, eb.name, exc)
                     continue
@@ -306,10 +320,12 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
     if chosen is not None:
         if profile_final:
             grid_fix = {k: (v,) for k, v in chosen.grid.items()}
-            start = refit(data, ev, spec_b, chosen.effects, x_base, scale,
+            spec_c = spec_b.replace(eta_r=chosen.eta_r)
+            start = refit(data, ev, spec_c, chosen.effects, x_base, scale,
                           grid_values=grid_fix, refine=False, x_start=chosen.x)
             start.grid_profiles = chosen.grid_profiles
-            chosen = profile_eta_r(data, ev, spec_b, chosen.effects, start, scale)
+            chosen = profile_eta_r(data, ev, spec_b, chosen.effects, start, scale,
+                                   max_steps=steps)
         res_after = resid.make_residual(data, chosen.problem.predict(chosen.x))
         st_after = resid.structure_test(res_after, n_parameters=chosen.k, repeats=repeats)
         chosen_row = dict(chosen_row, final_parameters=chosen.parameters(),

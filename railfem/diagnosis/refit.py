@@ -34,7 +34,8 @@ log = logging.getLogger(__name__)
 
 BASE = ("kp", "eta_p", "kb", "eta_b")
 CHI2_95 = 3.841
-ETA_R_STEP = 0.15  # decades between the rail-loss kernels of a profile
+REFINE_STEPS = 4  # parabolic steps of a numeric grid parameter (each a new kernel)
+ETA_R_LATTICE = 0.05  # decades between the rail-loss kernels of a profile
 MIN_SCALE = 0.1  # dB
 FAR = 60.0  # dB: the residual of a model entry that is not finite
 
@@ -256,6 +257,19 @@ def _starts(problem: Problem, x_base, n_keep: int):
     return [x for _, x in cands[:n_keep]]
 
 
+def _solve_effect_only(problem: Problem, x0, max_nfev=60):
+    """Least squares over the effect parameters only (the base held at x0)."""
+    n = len(BASE)
+    if len(x0) == n:
+        r = problem.residual(x0)
+        return np.asarray(x0, dtype=float), float(r @ r), None
+    lo, hi = problem.box.lower[n:], problem.box.upper[n:]
+    z0 = np.clip(np.asarray(x0[n:], dtype=float), lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
+    res = least_squares(lambda z: problem.residual(np.concatenate([x0[:n], z])), z0,
+                        bounds=(lo, hi), method="trf", max_nfev=max_nfev)
+    return np.concatenate([x0[:n], res.x]), float(2 * res.cost), None
+
+
 def fit_fixed(problem: Problem, x_base, n_keep: int = 2):
     """Best least-squares solution from the best start vectors: (x, cost, J)."""
     best = None
@@ -340,29 +354,45 @@ def _profile_grid(keys, values, best, results, problem_for, x_base, refine):
             continue
         vals = sorted(vals)
         i = vals.index(best[j])
-        for nb in (i - 1, i + 1):
+        is_int = all(float(v).is_integer() for v in vals) and key[1] == "index"
+        x_best = results[best][0]
+        for nb in range(len(vals)) if is_int else (i - 1, i + 1):
             if 0 <= nb < len(vals):
                 combo = best[:j] + (vals[nb],) + best[j + 1:]
                 if combo not in results:
-                    results[combo] = fit_fixed(problem_for(combo), results[best][0][:len(BASE)])
-        is_int = all(float(v).is_integer() for v in vals) and key[1] == "index"
-        if refine and not is_int and 0 < i < len(vals) - 1:
-            xs = np.array(vals[i - 1:i + 2], dtype=float)
-            cs = np.array([results[best[:j] + (v,) + best[j + 1:]][1] for v in xs])
+                    # a support index: the other indices with the base held (their costs
+                    # are upper bounds, so the index set is if anything too narrow)
+                    results[combo] = (_solve_effect_only(problem_for(combo), x_best)
+                                      if is_int else fit_fixed(problem_for(combo),
+                                                               x_best[:len(BASE)]))
+
+        def line():
+            return sorted((c[j], results[c][1]) for c in results
+                          if c[:j] == best[:j] and c[j + 1:] == best[j + 1:])
+
+        for _ in range(REFINE_STEPS if refine and not is_int else 0):
+            pts = line()
+            k = int(np.argmin([c for _, c in pts]))
+            if not 0 < k < len(pts) - 1:
+                break
+            xs = np.array([v for v, _ in pts[k - 1:k + 2]], dtype=float)
+            cs = np.array([c for _, c in pts[k - 1:k + 2]])
             A = np.vstack([xs ** 2, xs, np.ones(3)]).T
             a, b, _ = np.linalg.solve(A, cs)
-            if a > 0:
-                v = float(np.clip(-b / (2 * a), xs[0], xs[2]))
-                if min(abs(v - xs)) > 1e-3 * (xs[2] - xs[0]):
-                    combo = best[:j] + (v,) + best[j + 1:]
-                    results[combo] = fit_fixed(problem_for(combo),
-                                               results[best][0][:len(BASE)])
-        line = sorted((c[j], results[c][1]) for c in results
-                      if c[:j] == best[:j] and c[j + 1:] == best[j + 1:])
-        new_best = min(line, key=lambda t: t[1])[0]
+            if a <= 0:
+                break
+            v = float(np.clip(-b / (2 * a), xs[0], xs[2]))
+            if min(abs(v - xs)) < 1e-4 * (vals[-1] - vals[0]):
+                break
+            combo = best[:j] + (v,) + best[j + 1:]
+            near = results[best[:j] + (pts[k][0],) + best[j + 1:]][0]
+            results[combo] = _solve(problem_for(combo), near)
+        pts = sorted((c[j], results[c][1]) for c in results
+                     if c[:j] == best[:j] and c[j + 1:] == best[j + 1:])
+        new_best = min(pts, key=lambda t: t[1])[0]
         best = best[:j] + (new_best,) + best[j + 1:]
-        profiles[key] = {"values": [float(v) for v, _ in line],
-                         "cost": [float(c) for _, c in line], "value": float(new_best),
+        profiles[key] = {"values": [float(v) for v, _ in pts],
+                         "cost": [float(c) for _, c in pts], "value": float(new_best),
                          "integer": is_int}
     return best, profiles
 
@@ -388,6 +418,13 @@ def _grid_interval(prof: dict, s2: float) -> dict:
         if d[a + 1] >= CHI2_95:
             hi = v[a] + (CHI2_95 - d[a]) * (v[a + 1] - v[a]) / (d[a + 1] - d[a])
             break
+    if 0 < k < len(v) - 1:  # the parabola through the best three: a finer interval
+        A = np.vstack([v[k - 1:k + 2] ** 2, v[k - 1:k + 2], np.ones(3)]).T
+        a, b, _ = np.linalg.solve(A, c[k - 1:k + 2])
+        if a > 0:
+            half = math.sqrt(CHI2_95 * s2 / a)
+            vertex = -b / (2 * a)
+            lo, hi = vertex - half, vertex + half
     open_ = [s for s, x in (("low", lo), ("high", hi)) if x is None]
     return {"ci95": [float(v[0] if lo is None else lo), float(v[-1] if hi is None else hi)],
             "identifiable": "yes" if not open_ else ("weak" if len(open_) == 1 else "no"),
@@ -396,13 +433,17 @@ def _grid_interval(prof: dict, s2: float) -> dict:
 
 
 def profile_eta_r(data, evaluator, spec, effects, outcome: Outcome, scale, *,
-                  max_steps: int = 8, tol: float = 0.001, bounds=None) -> Outcome:
-    """Refit ``outcome``'s model at other rail loss factors (each a new kernel), warm-started
-    from the nearest refitted one: steps of ETA_R_STEP decades downhill, then parabolic
-    steps until they move less than ``tol`` decades. Returns the best Outcome with the
-    eta_r profile and its 95 % interval (profile within CHI2_95 s^2 of the minimum)."""
+                  max_steps: int | None = None, step: float = ETA_R_LATTICE,
+                  refine: bool = True, tol: float = 0.001, bounds=None) -> Outcome:
+    """Refit ``outcome``'s model at other rail loss factors (each a new kernel, shared by
+    every candidate: the values lie on a lattice ``step`` decades apart around the base
+    value), warm-started from the nearest refitted one, walking downhill until the minimum
+    is bracketed; with ``refine``, parabolic steps (new kernels) until they move less than
+    ``tol`` decades. Returns the best Outcome with the eta_r profile and its 95 % interval
+    (the Jacobian gets a finite-difference rail-loss column)."""
     grid = {k: (v,) for k, v in outcome.grid.items()}
-    done = {math.log10(outcome.eta_r): outcome}
+    done = {round(math.log10(outcome.eta_r), 6): outcome}
+    max_steps = 8 if max_steps is None else max_steps
 
     def at(le):
         le = round(float(le), 6)
@@ -420,18 +461,24 @@ def profile_eta_r(data, evaluator, spec, effects, outcome: Outcome, scale, *,
         return o
 
     e0 = math.log10(outcome.eta_r)
-    at(e0 - ETA_R_STEP / 5)
-    at(e0 + ETA_R_STEP / 5)
-    for _ in range(max_steps):
+    if max_steps > 0:
+        at(e0 - step)
+        at(e0 + step)
+    for _ in range(max_steps):  # walk the lattice until the minimum is bracketed
+        v = sorted(done)
+        k = int(np.argmin([done[x].cost for x in v]))
+        if k == 0:
+            at(v[0] - step)
+        elif k == len(v) - 1:
+            at(v[-1] + step)
+        else:
+            break
+    for _ in range(max_steps if refine else 0):
         v = np.array(sorted(done))
         c = np.array([done[x].cost for x in v])
         k = int(np.argmin(c))
-        if k == 0:
-            at(v[0] - ETA_R_STEP)
-            continue
-        if k == len(v) - 1:
-            at(v[-1] + ETA_R_STEP)
-            continue
+        if not 0 < k < len(v) - 1:
+            break
         A = np.vstack([v[k - 1:k + 2] ** 2, v[k - 1:k + 2], np.ones(3)]).T
         a, b, _ = np.linalg.solve(A, c[k - 1:k + 2])
         if a <= 0:
@@ -443,15 +490,10 @@ def profile_eta_r(data, evaluator, spec, effects, outcome: Outcome, scale, *,
     v = np.array(sorted(done))
     c = np.array([done[x].cost for x in v])
     best = done[v[int(np.argmin(c))]]
+    if len(v) < 2:
+        return best
     s2 = best.analysis["residual_variance"]
     iv = _grid_interval({"values": list(v), "cost": list(c)}, s2)
-    k = int(np.argmin(c))
-    if 0 < k < len(v) - 1:  # the parabola through the best three gives a finer interval
-        A = np.vstack([v[k - 1:k + 2] ** 2, v[k - 1:k + 2], np.ones(3)]).T
-        a, b, _ = np.linalg.solve(A, c[k - 1:k + 2])
-        if a > 0:
-            half = math.sqrt(CHI2_95 * s2 / a)
-            iv["ci95"] = [float(v[k] - half), float(v[k] + half)]
     _joint_uncertainty(best, done)
     joint = best.analysis.get("eta_r")
     best.eta_r_profile = {"values": [float(10 ** x) for x in v], "cost": c.tolist(),

@@ -128,5 +128,5 @@ def get(name: str) -> Effect:
     try:
         return REGISTRY[name]
     except KeyError:
-        raise KeyError(f"unknown effect {name!r}; the library has {', '.join(REGISTRY)}") \
+        raise ValueError(f"unknown effect {name!r}; the library has {', '.join(REGISTRY)}") \
             from None

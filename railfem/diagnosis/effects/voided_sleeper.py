@@ -27,4 +27,4 @@ EFFECT = Effect(
         EffectParameter(name="index", unit="-", lower=-10, upper=100, log=False, start=0,
                         meaning="the support, counted from the one at x = 0"),
     ),
-    grid={"index": INDICES}, needs=("discrete",))
+    grid={"index": INDICES}, needs=("discrete", "deviations"))
