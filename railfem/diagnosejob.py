@@ -207,8 +207,8 @@ def markdown(s: dict, figs: list[str], title: str) -> str:
              else "")
           + f"; white part {st['sigma_white_db']:.2f} dB, structured part "
           f"{st['structured_rms_db']:.2f} dB).", ""]
-    L += ["## Candidates", "", "Ranked: kept candidates first, then by BIC. Gates: "
-          + s["rules"]["text"].replace("\n", " "), "",
+    L += ["## Candidates", "", "Ranked: kept candidates first, then by BIC. Gates "
+          + " ".join(s["rules"]["text"].split()), "",
           "| rank | candidate | kept | dAICc | dBIC | held-out change | p | plausible | "
           "parameters |", "|---|---|---|---|---|---|---|---|---|"]
     for c in s["candidates"]:

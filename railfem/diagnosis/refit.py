@@ -331,6 +331,13 @@ def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
         best, profiles = _profile_grid(keys, values, best, results, problem_for, x_base,
                                        refine)
     pb = problem_for(best)
+    if results[best][2] is None:  # won by a partial refit (a support index): refit all
+        results[best] = _solve(pb, results[best][0])
+        if keys:
+            for k_, prof in profiles.items():
+                j = keys.index(k_)
+                if best[j] in prof["values"]:
+                    prof["cost"][prof["values"].index(best[j])] = results[best][1]
     x, c, J = results[best]
     r = pb.residual(x)
     analysis = uncertainty.analyse(pb.box, x, J, r)

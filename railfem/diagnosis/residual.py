@@ -21,7 +21,9 @@ band; railfem.plotting draws it over frequency, over hammer distance and head ag
 
 It also estimates the white part of the residual from first differences over frequency
 (sigma_w^2 = mean (r_i - r_i-1)^2 / 2, structure cancels in differences of neighbours) and
-the structured RMS sqrt(max(0, mean r^2 - sigma_w^2)) in dB.
+the structured RMS sqrt(max(0, mean r^2 - sigma_w^2)) in dB; where repeats exist the
+structured RMS is sqrt(max(0, mean r^2 - mean s_b^2)) instead (the repeats measure the
+noise directly; band-to-band differences of a decay rate are not noise).
 """
 from __future__ import annotations
 
@@ -201,6 +203,9 @@ def structure_test(res: Residual, *, part="fit", alpha: float = ALPHA,
         sc = scatter_test(res, repeats, part=part, n_parameters=n_parameters)
         out["scatter"] = sc
         p_all = min(1.0, 2 * min(p_corr, sc["p"]))
+        if sc.get("mean_r2") is not None:  # the repeats measure the noise directly
+            out["structured_rms_db"] = float(np.sqrt(max(0.0, sc["mean_r2"] - sc["mean_s2"])))
+            out["structured_from"] = "repeat scatter"
     out["p"] = p_all
     out["verdict"] = "structure" if p_all < alpha else "noise"
     return out
@@ -233,7 +238,7 @@ def repeat_scatter(data, part="fit") -> dict:
 
 def scatter_test(res: Residual, scatter: dict, *, part="fit", n_parameters=0) -> dict:
     """sum r^2 / s_b^2 over the decay-rate residuals against chi^2(N - p)."""
-    chi, n = 0.0, 0
+    chi, n, r2, s2 = 0.0, 0, 0.0, 0.0
     for b in res.select(part=part, quantity="tdr"):
         for k, c in enumerate(b.x):
             s = scatter.get(float(c))
@@ -242,6 +247,9 @@ def scatter_test(res: Residual, scatter: dict, *, part="fit", n_parameters=0) ->
             if s and v.size:
                 chi += float(np.sum((v / s) ** 2))
                 n += v.size
+                r2 += float(np.sum(v ** 2))
+                s2 += s ** 2 * v.size
     dof = max(n - n_parameters, 1)
     return {"chi2": chi, "dof": dof, "p": float(stats.chi2.sf(chi, dof)) if n else 1.0,
-            "ratio": chi / dof if n else None}
+            "ratio": chi / dof if n else None, "mean_r2": r2 / n if n else None,
+            "mean_s2": s2 / n if n else None}
