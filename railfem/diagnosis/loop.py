@@ -40,7 +40,8 @@ from railfem.diagnosis import effects as library
 from railfem.diagnosis import residual as resid
 from railfem.diagnosis.data import DiagnosisData, prepare
 from railfem.diagnosis.evaluate import Evaluator
-from railfem.diagnosis.refit import BASE, Outcome, Problem, noise_scale, profile_eta_r, refit
+from railfem.diagnosis.refit import (BASE, REFINE_STEPS, Outcome, Problem, noise_scale,
+                                     profile_eta_r, refit)
 from railfem.identify import data as fdata
 from railfem.spec import TrackSpec, preset
 
@@ -51,6 +52,8 @@ MIN_GAIN = 0.10
 DELTA_BIC = 10.0
 BOUND_MARGIN = 0.01
 WFE_ETA_R_STEPS = 1
+WFE_REFINE_STEPS = 1  # parabolic steps of a geometry / pad-length grid with a WFE model
+WFE_PAD_LENGTHS = (0.08, 0.16, 0.24)
 COVARIATE_SPREAD = {"temperature_c": 5.0, "static_load_kn": 10.0}
 
 
@@ -100,9 +103,12 @@ def applicable(effect, data: DiagnosisData, model: str):
     return True, ""
 
 
-def grid_values(effect, data: DiagnosisData) -> dict:
-    """Categorical grids restricted to what the data have (sensors)."""
+def grid_values(effect, data: DiagnosisData, model: str = "") -> dict:
+    """Categorical grids restricted to what the data have (sensors); with a WFE model the
+    pad-length grid is thinned to three values (each is a WFE kernel)."""
     out = {}
+    if effect.name == "pad_length" and model.startswith("wfe"):
+        out[(effect.name, "pad_length")] = WFE_PAD_LENGTHS
     if effect.name == "sensor_resonance":
         outs = sorted({o for r in data.records for o in r.fit.outputs})
         out[(effect.name, "sensor")] = ("all",) + (tuple(outs) if len(outs) > 1 else ())
@@ -194,16 +200,18 @@ def _kept(row: dict, ref_bic: float) -> bool:
 def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None,
              effects=None, spacing: float | None = None, pairs: bool = True,
              n_starts: int = 4, workers: int = 1, cache=False, seed: int = 0,
-             profile_final: bool = True, max_pairs: int = 3) -> Diagnosis:
+             profile_final: bool = True, max_pairs: int = 3,
+             data_options=None) -> Diagnosis:
     """Diagnose ``data`` (a HammerMeasurement, DecayRateMeasurement/Table, a list of them or
     DiagnosisData) with track model ``model``; ``effects``: names from the library
     (default all); ``base``: the spec whose other values are kept (default the site
-    preset). See the module docstring for the steps."""
+    preset); ``data_options``: to railfem.diagnosis.data.prepare (e.g. f_range=(50, 2000),
+    sensors=['head']). See the module docstring for the steps."""
     from railfem.identify import fit as identify_fit
 
     t0 = time.perf_counter()
     seconds = {}
-    data = prepare(data, spacing=spacing)
+    data = prepare(data, spacing=spacing, **(data_options or {}))
     spec0 = (base if base is not None else preset("site")).replace(model=model,
                                                                    spacing=data.spacing)
     names = library.names() if effects is None else tuple(effects)
@@ -262,7 +270,9 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
     for e in cands:
         te = time.perf_counter()
         try:
-            o = refit(data, ev, spec_b, (e,), x_base, scale, grid_values=grid_values(e, data))
+            o = refit(data, ev, spec_b, (e,), x_base, scale,
+                      grid_values=grid_values(e, data, model),
+                      refine_steps=WFE_REFINE_STEPS if wfe else REFINE_STEPS)
         except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
             skipped[e.name] = f"refit failed: {exc}"
             log.warning("diagnosis: %s failed: %s", e.name, exc)
@@ -293,8 +303,9 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
                     continue
                 ref = outcomes[top[i]["name"]]
                 try:
-                    gv = dict(grid_values(ea, data), **grid_values(eb, data))
-                    o = refit(data, ev, spec_b, (ea, eb), x_base, scale, grid_values=gv)
+                    gv = dict(grid_values(ea, data, model), **grid_values(eb, data, model))
+                    o = refit(data, ev, spec_b, (ea, eb), x_base, scale, grid_values=gv,
+                              refine_steps=WFE_REFINE_STEPS if wfe else REFINE_STEPS)
                     if profile_final and not wfe:
                         o = profile_eta_r(data, ev, spec_b, (ea, eb), o, scale, max_steps=6,
                                           refine=False)

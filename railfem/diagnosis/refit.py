@@ -12,7 +12,8 @@ best value and its neighbours (one new kernel), and its 95 % interval is read of
 profile (cost within chi^2_1(95 %) s^2 of the minimum).
 
 Residuals are divided by a fixed scale per quantity (the white-noise level of the base
-fit's residual, at least 0.1 dB), so every model is scored on the same footing:
+fit's residual from the median absolute deviation of its first differences, at least
+0.1 dB), so every model is scored on the same footing:
 cost = sum (r / s_q)^2, AICc = cost + 2k + 2k(k+1)/(N-k-1), BIC = cost + k ln N.
 """
 from __future__ import annotations
@@ -159,19 +160,22 @@ def residuals(target, receptance) -> dict:
 
 
 def noise_scale(problem: Problem, x) -> dict:
-    """Per quantity, the white-noise level of the residual (first differences over
-    frequency or band, per sequence), at least MIN_SCALE dB."""
-    d2, n = {}, {}
+    """Per quantity, the white-noise level of the residual: 1.4826 MAD of its first
+    differences over frequency or band / sqrt 2, at least MIN_SCALE dB."""
+    diffs: dict = {}
     pred = problem.predict(x)
     for r in problem.data.records:
         table = fdata.residual_table(r.fit, pred[r.name])
         for q, v in table.items():
             v = np.asarray(v, dtype=float).reshape(v.shape[0], -1)
             d = np.diff(v, axis=0)
-            d = d[np.isfinite(d)]
-            d2[q] = d2.get(q, 0.0) + float(np.sum(d ** 2))
-            n[q] = n.get(q, 0) + d.size
-    return {q: max(math.sqrt(d2[q] / max(2 * n[q], 1)), MIN_SCALE) for q in d2}
+            diffs.setdefault(q, []).append(d[np.isfinite(d)])
+    out = {}
+    for q, ds in diffs.items():
+        d = np.concatenate(ds)
+        mad = 1.4826 * float(np.median(np.abs(d - np.median(d)))) if d.size else 0.0
+        out[q] = max(mad / math.sqrt(2), MIN_SCALE)  # robust to sharp local misfits
+    return out
 
 
 @dataclass
@@ -290,7 +294,8 @@ def _grid_combos(effects):
 
 
 def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
-          screen_keep: int = 2, refine: bool = True, bounds=None, x_start=None) -> Outcome:
+          screen_keep: int = 2, refine: bool = True, bounds=None, x_start=None,
+          refine_steps: int = REFINE_STEPS) -> Outcome:
     """Fit base + ``effects`` (see the module docstring) starting from the base vector
     x_base (BASE parameters, vector units) with the rail loss factor of ``spec``.
     grid_values: {(effect, name): values} overriding the effects' grids (e.g. only the
@@ -329,7 +334,7 @@ def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
     profiles = {}
     if keys:
         best, profiles = _profile_grid(keys, values, best, results, problem_for, x_base,
-                                       refine)
+                                       refine_steps if refine else 0)
     pb = problem_for(best)
     if results[best][2] is None:  # won by a partial refit (a support index): refit all
         results[best] = _solve(pb, results[best][0])
@@ -350,7 +355,7 @@ def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
                    analysis=analysis, grid_profiles=profiles)
 
 
-def _profile_grid(keys, values, best, results, problem_for, x_base, refine):
+def _profile_grid(keys, values, best, results, problem_for, x_base, refine_steps):
     """For each numeric grid parameter: refit the neighbours of the best value, then one
     parabolic step (a new value); returns the best combination and the profiles."""
     profiles = {}
@@ -377,7 +382,7 @@ def _profile_grid(keys, values, best, results, problem_for, x_base, refine):
             return sorted((c[j], results[c][1]) for c in results
                           if c[:j] == best[:j] and c[j + 1:] == best[j + 1:])
 
-        for _ in range(REFINE_STEPS if refine and not is_int else 0):
+        for _ in range(0 if is_int else refine_steps):
             pts = line()
             k = int(np.argmin([c for _, c in pts]))
             if not 0 < k < len(pts) - 1:

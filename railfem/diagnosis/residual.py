@@ -20,7 +20,8 @@ band; railfem.plotting draws it over frequency, over hammer distance and head ag
   differences between repeats; sum r^2 / s_b^2 against chi^2(N - p).
 
 It also estimates the white part of the residual from first differences over frequency
-(sigma_w^2 = mean (r_i - r_i-1)^2 / 2, structure cancels in differences of neighbours) and
+(sigma_w = 1.4826 MAD(r_i - r_i-1) / sqrt 2: smooth structure cancels in differences of
+neighbours and sharp local misfits do not move a median) and
 the structured RMS sqrt(max(0, mean r^2 - sigma_w^2)) in dB; where repeats exist the
 structured RMS is sqrt(max(0, mean r^2 - mean s_b^2)) instead (the repeats measure the
 noise directly; band-to-band differences of a decay rate are not noise).
@@ -190,7 +191,9 @@ def structure_test(res: Residual, *, part="fit", alpha: float = ALPHA,
     p_corr = min(1.0, min(tests) * len(tests)) if tests else 1.0
     d = np.concatenate(diffs) if diffs else np.zeros(0)
     s = np.concatenate(squares) if squares else np.zeros(0)
-    sigma_w = float(np.sqrt(np.mean(d ** 2) / 2)) if d.size else float("nan")
+    # robust: 1.4826 MAD of the differences (sharp local misfits do not count as noise)
+    sigma_w = (float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2)) if d.size
+               else float("nan"))
     total = float(np.sqrt(np.mean(s))) if s.size else float("nan")
     structured = float(np.sqrt(max(0.0, np.mean(s) - sigma_w ** 2))) if s.size else 0.0
     out = {"part": part, "alpha": alpha, "n": int(n_tot),
