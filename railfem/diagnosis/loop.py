@@ -40,8 +40,9 @@ from railfem.diagnosis import effects as library
 from railfem.diagnosis import residual as resid
 from railfem.diagnosis.data import DiagnosisData, prepare
 from railfem.diagnosis.evaluate import Evaluator
-from railfem.diagnosis.refit import (BASE, REFINE_STEPS, Outcome, Problem, noise_scale,
-                                     profile_eta_r, refit)
+from railfem.diagnosis.refit import (BASE, REFINE_STEPS, Outcome, Problem,
+                                     interval_from_profile, noise_scale, profile_eta_r,
+                                     refit)
 from railfem.identify import data as fdata
 from railfem.spec import TrackSpec, preset
 
@@ -182,6 +183,53 @@ def plausibility(o: Outcome) -> tuple[bool, str]:
     return True, ""
 
 
+def joint_profile(data, ev, spec_b, effect, start: Outcome, scale, gv) -> Outcome:
+    """A numeric kernel grid parameter (one) profiled with the rail loss factor free at
+    every value (a lattice profile each), then one parabolic step in the grid parameter;
+    its profile and 95 % interval come from these costs."""
+    (key,) = [(effect.name, n) for n in effect.grid]
+    values = sorted(gv.get(key, effect.grid[key[1]]))
+    done = {}
+
+    def at(v):
+        v = float(v)
+        if v not in done:
+            near = min(done, key=lambda u: abs(u - v)) if done else None
+            x0 = (done[near] if near is not None else start).x
+            o = refit(data, ev, spec_b.replace(eta_r=(done[near] if near is not None else
+                                                      start).eta_r),
+                      (effect,), x0[:len(BASE)], scale, grid_values={key: (v,)},
+                      refine=False, x_start=x0)
+            done[v] = profile_eta_r(data, ev, spec_b, (effect,), o, scale, max_steps=6,
+                                    refine=True)  # a smooth profile for the steps below
+        return done[v]
+
+    for v in values:
+        at(v)
+    for _ in range(REFINE_STEPS):
+        v = np.array(sorted(done))
+        c = np.array([done[u].cost for u in v])
+        k = int(np.argmin(c))
+        if not 0 < k < len(v) - 1:
+            break
+        A = np.vstack([v[k - 1:k + 2] ** 2, v[k - 1:k + 2], np.ones(3)]).T
+        a, b, _ = np.linalg.solve(A, c[k - 1:k + 2])
+        if a <= 0:
+            break
+        new = float(np.clip(-b / (2 * a), v[k - 1], v[k + 1]))
+        if min(abs(new - v)) < 1e-4 * (values[-1] - values[0]):
+            break
+        at(new)
+    v = sorted(done)
+    best = done[min(v, key=lambda u: done[u].cost)]
+    prof = {"values": [float(u) for u in v], "cost": [float(done[u].cost) for u in v],
+            "value": float(best.grid[key]), "integer": False,
+            "note": "rail loss factor refitted at every value"}
+    prof.update(interval_from_profile(prof, best.analysis["residual_variance"]))
+    best.grid_profiles = {key: prof}
+    return best
+
+
 def _row(o: Outcome, ref: Outcome, base: Outcome, gate: dict, ok: bool, why: str) -> dict:
     return {"name": o.name, "effects": [e.name for e in o.effects], "k": o.k, "n": o.n,
             "cost": o.cost, "aicc": o.aicc, "bic": o.bic,
@@ -279,6 +327,10 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
             continue
         if profile_final and not wfe:  # the base's rail loss absorbed part of the effect
             o = profile_eta_r(data, ev, spec_b, (e,), o, scale, max_steps=6, refine=False)
+            if e.kind == "spec" and any(n != "index" for n in e.grid):
+                # a kernel grid (pad length) trades against the rail loss: profile both
+                o2 = joint_profile(data, ev, spec_b, e, o, scale, grid_values(e, data, model))
+                o = o2 if o2.cost < o.cost else o
         gate = held_gate(base_o, o, pred_ref=pred_base)
         ok, why = plausibility(o)
         row = _row(o, base_o, base_o, gate, ok, why)

@@ -348,7 +348,7 @@ def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
     analysis = uncertainty.analyse(pb.box, x, J, r)
     s2 = analysis["residual_variance"]
     for k, prof in profiles.items():
-        prof.update(_grid_interval(prof, s2))
+        prof.update(interval_from_profile(prof, s2))
     k = len(x) + len(keys) + 1  # + the rail loss factor (fitted with the base)
     return Outcome(effects=effects, grid=dict(zip(keys, best)), x=x,
                    eta_r=float(spec.rail.eta), cost=c, n=len(r), k=k, problem=pb,
@@ -409,7 +409,7 @@ def _profile_grid(keys, values, best, results, problem_for, x_base, refine_steps
     return best, profiles
 
 
-def _grid_interval(prof: dict, s2: float) -> dict:
+def interval_from_profile(prof: dict, s2: float) -> dict:
     """95 % interval of a profiled grid parameter: where the profile stays within
     CHI2_95 s^2 of its minimum (linear interpolation; open at the grid's ends)."""
     v, c = np.array(prof["values"]), np.array(prof["cost"])
@@ -505,7 +505,7 @@ def profile_eta_r(data, evaluator, spec, effects, outcome: Outcome, scale, *,
     if len(v) < 2:
         return best
     s2 = best.analysis["residual_variance"]
-    iv = _grid_interval({"values": list(v), "cost": list(c)}, s2)
+    iv = interval_from_profile({"values": list(v), "cost": list(c)}, s2)
     _joint_uncertainty(best, done)
     joint = best.analysis.get("eta_r")
     best.eta_r_profile = {"values": [float(10 ** x) for x in v], "cost": c.tolist(),

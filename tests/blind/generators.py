@@ -153,3 +153,23 @@ def _campaign(case, p, spec, f, seed, outputs):
                                    Metadata(date=f"2020-0{i + 1}-01",
                                             notes={"static_load_kn": P})))
     return out
+
+
+def decay_rate_campaign(seed: int, a: float = 0.03, temps=(0.0, 15.0, 30.0), level=0.03,
+                        model=MODEL):
+    """Decay rates per band (100 Hz - 5 kHz) of the truth at three temperatures with the pad
+    following kp exp(-a (T - mean T)); multiplicative scatter ``level`` per band."""
+    from railfem.measurement import DecayRateMeasurement
+
+    rng = np.random.default_rng(seed)
+    f = iec61260.ninth_octave_grid(100.0, 5000.0)
+    out = []
+    for i, T in enumerate(temps):
+        spec = truth_spec(model)
+        spec = spec.replace(kp=spec.support.kp * math.exp(-a * (T - float(np.mean(temps)))))
+        r = models.decay_rate(spec, f, cache=False)
+        d = np.asarray(r.decay_rate) * (1 + level * rng.standard_normal(len(r.decay_rate)))
+        out.append(DecayRateMeasurement(frequency=np.asarray(r.frequency), decay_rate=d,
+                                        metadata=Metadata(date=f"2020-0{i + 1}-01",
+                                                          temperature_c=T, section="S1")))
+    return out
