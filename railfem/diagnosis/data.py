@@ -198,15 +198,3 @@ def prepare(data, *, spacing: float | None = None, **options) -> DiagnosisData:
                          "m: diagnose them separately")
     return DiagnosisData(records=tuple(_with_means(records)), spacing=float(spacing),
                          description="; ".join(desc))
-
-
-def select(data: DiagnosisData, names) -> DiagnosisData:
-    """The records named ``names`` (covariate means recomputed)."""
-    keep = [r for r in data.records if r.name in set(names)]
-    if not keep:
-        raise ValueError(f"no record named {names}; records: {[r.name for r in data.records]}")
-    recs = [replace(r, covariates={k: (v[0], v[0]) for k, v in r.covariates.items()})
-            for r in keep]
-    return replace(data, records=tuple(_with_means(recs)))
-
-
