@@ -220,3 +220,25 @@ def test_decay_rate_campaign_finds_the_temperature_effect():
     assert d.chosen is not None and d.chosen.name == "temperature"
     a = [p for p in d.chosen.parameters() if p["name"] == "temperature.a"][0]
     assert a["ci95"][0] <= 0.03 <= a["ci95"][1], a
+
+
+def test_scatter_test_against_repeat_scatter():
+    """Residuals as large as the repeat scatter: no excess, chi^2 near its dof; three times
+    the scatter: structure, excess sqrt(8) s."""
+    rng = np.random.default_rng(4)
+    bands = np.array([100.0, 125, 160, 200, 250, 315, 400, 500])
+    scatter = {float(c): 0.5 for c in bands}
+
+    def res(scale):
+        blocks = tuple(R.Block(record=f"r{i}", part="fit", quantity="tdr", axis="band",
+                               x=bands, outputs=("head",), positions=np.array([np.nan]),
+                               values=scale * 0.5 * rng.standard_normal((8, 1, 1)))
+                       for i in range(40))
+        return R.Residual(blocks=blocks)
+
+    same = R.scatter_test(res(1.0), scatter)
+    assert 0.7 < same["ratio"] < 1.3 and same["p"] > 1e-3
+    big = R.structure_test(res(3.0), repeats=scatter)
+    assert big["verdict"] == "structure"
+    assert big["structured_rms_db"] == pytest.approx(np.sqrt(np.mean(np.maximum(
+        (3 * 0.5) ** 2 * rng.standard_normal(100000) ** 2 - 0.25, 0))), rel=0.15)

@@ -23,8 +23,9 @@ It also estimates the white part of the residual from first differences over fre
 (sigma_w = 1.4826 MAD(r_i - r_i-1) / sqrt 2: smooth structure cancels in differences of
 neighbours and sharp local misfits do not move a median) and
 the structured RMS sqrt(max(0, mean r^2 - sigma_w^2)) in dB; where repeats exist the
-structured RMS is sqrt(max(0, mean(r^2 / s_b^2) - 1) mean s_b^2) instead (the repeats
-measure the noise directly; band-to-band differences of a decay rate are not noise).
+structured RMS is sqrt(mean max(0, r^2 - s_b^2)) instead: what exceeds the repeat
+scatter band by band (the repeats measure the noise directly; band-to-band differences of
+a decay rate are not noise).
 """
 from __future__ import annotations
 
@@ -206,9 +207,8 @@ def structure_test(res: Residual, *, part="fit", alpha: float = ALPHA,
         sc = scatter_test(res, repeats, part=part, n_parameters=n_parameters)
         out["scatter"] = sc
         p_all = min(1.0, 2 * min(p_corr, sc["p"]))
-        if sc.get("ratio") is not None:  # the repeats measure the noise directly
-            excess = max(0.0, sc["chi2"] / max(sc["n"], 1) - 1.0)
-            out["structured_rms_db"] = float(np.sqrt(excess * sc["mean_s2"]))
+        if sc.get("excess") is not None:  # the repeats measure the noise directly
+            out["structured_rms_db"] = float(np.sqrt(sc["excess"]))
             out["structured_from"] = "repeat scatter"
     out["p"] = p_all
     out["verdict"] = "structure" if p_all < alpha else "noise"
@@ -242,7 +242,7 @@ def repeat_scatter(data, part="fit") -> dict:
 
 def scatter_test(res: Residual, scatter: dict, *, part="fit", n_parameters=0) -> dict:
     """sum r^2 / s_b^2 over the decay-rate residuals against chi^2(N - p)."""
-    chi, n, r2, s2 = 0.0, 0, 0.0, 0.0
+    chi, n, r2, s2, ex = 0.0, 0, 0.0, 0.0, 0.0
     for b in res.select(part=part, quantity="tdr"):
         for k, c in enumerate(b.x):
             s = scatter.get(float(c))
@@ -253,7 +253,8 @@ def scatter_test(res: Residual, scatter: dict, *, part="fit", n_parameters=0) ->
                 n += v.size
                 r2 += float(np.sum(v ** 2))
                 s2 += s ** 2 * v.size
+                ex += float(np.sum(np.maximum(v ** 2 - s ** 2, 0.0)))
     dof = max(n - n_parameters, 1)
     return {"chi2": chi, "dof": dof, "p": float(stats.chi2.sf(chi, dof)) if n else 1.0,
             "ratio": chi / dof if n else None, "n": n, "mean_r2": r2 / n if n else None,
-            "mean_s2": s2 / n if n else None}
+            "mean_s2": s2 / n if n else None, "excess": ex / n if n else None}
