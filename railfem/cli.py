@@ -850,6 +850,43 @@ def _support_run(args) -> int:
 
 
 
+def _diagnose_args(p: argparse.ArgumentParser) -> None:
+    from .spec import MODELS
+
+    p.add_argument("data", type=Path, metavar="DATA",
+                   help="hammer dataset folder / .toml descriptor, or a decay-rate table .csv")
+    p.add_argument("--model", choices=MODELS, default="wfe-discrete",
+                   help="track model (default wfe-discrete)")
+    p.add_argument("--effects", default=None, metavar="E,E",
+                   help="candidate effects (default: the whole library)")
+    p.add_argument("--select", default=None, metavar="K=V,...",
+                   help="table: rows matching e.g. dir=v,sec=B5 (keys dir, sec, date, rail)")
+    p.add_argument("--group", default="section,date", metavar="K,K",
+                   help="table: diagnose rows grouped by these keys (default section,date)")
+    p.add_argument("--spacing", type=_positive, default=0.6, metavar="M",
+                   help="table: sleeper spacing in m (default 0.6)")
+    p.add_argument("--starts", type=_count, default=4, metavar="N",
+                   help="multi-start points of the base fit (default 4)")
+    p.add_argument("--workers", type=_count, default=1, metavar="N",
+                   help="parallel processes of the base fit (default 1)")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/diagnose"), metavar="DIR",
+                   help="output folder (default railfem-output/diagnose)")
+
+
+def _diagnose_run(args) -> int:
+    from .diagnosejob import run_diagnose
+
+    effects = ([x.strip() for x in args.effects.split(",") if x.strip()]
+               if args.effects else None)
+    s = run_diagnose(args.data, args.out, model=args.model, select=args.select,
+                     group=args.group, spacing=args.spacing, effects=effects,
+                     n_starts=args.starts, workers=args.workers, command=" ".join(sys.argv))
+    for g in s["groups"]:
+        sys.stdout.write(f"{g['name']}: {g['statement']}\n")
+    sys.stdout.write(f"wrote {Path(args.out) / 'run.json'}\n")
+    return 0
+
+
 COMMANDS = {
     "mesh": (_mesh_args, _mesh_run, "mesh a rail profile and write a mesh-quality summary"),
     "dispersion": (_dispersion_args, _dispersion_run,
@@ -870,6 +907,8 @@ COMMANDS = {
                   "combined wheel-rail roughness from pass-by recordings (full, simplified)"),
     "study": (_study_args, _study_run, "error studies on simulated data"),
     "fit": (_fit_args, _fit_run, "track parameters fitted to measured data, with uncertainty"),
+    "diagnose": (_diagnose_args, _diagnose_run,
+                 "residual of a calibrated model traced to a physical effect, before/after"),
 }
 
 

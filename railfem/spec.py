@@ -92,9 +92,8 @@ class SupportDeviation:
             v.non_negative(f"SupportDeviation.{name}", getattr(self, name), "(factor)")
 
     def apply(self, p: SupportParameters) -> SupportParameters:
-        return SupportParameters(kp=p.kp * self.kp, eta_p=p.eta_p * self.eta_p,
-                                 ms=p.ms * self.ms, kb=p.kb * self.kb,
-                                 eta_b=p.eta_b * self.eta_b)
+        return replace(p, kp=p.kp * self.kp, eta_p=p.eta_p * self.eta_p, ms=p.ms * self.ms,
+                       kb=p.kb * self.kb, eta_b=p.eta_b * self.eta_b)  # keeps pad laws
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -375,9 +374,21 @@ def spec_to_dict(spec: TrackSpec) -> dict:
         del rail["mesh_file"]
     return {
         "name": spec.name, "model": spec.model,
-        "support": {f.name: getattr(spec.support, f.name) for f in fields(spec.support)},
+        "support": support_to_dict(spec.support),
         "track": {"spacing": spec.spacing, "pad_length": spec.pad_length,
                   "n_rows": spec.n_rows, "n_supports": spec.n_supports},
         "rail": rail, "numerics": asdict(spec.numerics),
         "deviations": [asdict(d) for d in spec.deviations],
     }
+
+
+def support_to_dict(p: SupportParameters) -> dict:
+    """The support's numbers (SI); the diagnosis hooks (pad_laws, absorber) only when set,
+    as {'law': class name, field: value} tables (spec_from_dict does not read them back)."""
+    out = {f.name: getattr(p, f.name) for f in fields(p)
+           if f.name not in ("pad_laws", "absorber")}
+    if p.pad_laws:
+        out["pad_laws"] = [{"law": type(law).__name__, **asdict(law)} for law in p.pad_laws]
+    if p.absorber is not None:
+        out["absorber"] = {"law": type(p.absorber).__name__, **asdict(p.absorber)}
+    return out

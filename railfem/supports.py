@@ -45,6 +45,89 @@ def _check_loss_factor(name: str, value: float) -> None:
             f">= 0 (a negative loss factor creates energy)")
 
 
+# ---------------------------------------------------------------------------------------------
+# Hooks for what the plain chain lacks (used by railfem.diagnosis.effects; default: none)
+
+
+@dataclass(frozen=True, kw_only=True)
+class FractionalZener:
+    """Frequency-dependent pad stiffness: a fractional standard linear solid (Zener) law
+
+        kp*(omega) = kp (1 + i eta_p) (1 + ratio (i omega / omega_c)^alpha)
+                                     / (1 + (i omega / omega_c)^alpha)
+
+    kp is then the static (low-frequency) stiffness and ratio * kp the high-frequency one;
+    the law adds its own loss, largest near omega_c. ratio: k_inf / k_0 (-), >= 1.
+    fc: omega_c / (2 pi) (Hz), > 0. alpha: fractional order (-), 0 < alpha <= 1
+    (1 = the classical standard linear solid). Relative, so a support split into springs
+    keeps it unchanged."""
+
+    ratio: float
+    fc: float
+    alpha: float = 0.5
+
+    def __post_init__(self):
+        if not (np.isfinite(self.ratio) and self.ratio >= 1):
+            raise ValueError(f"FractionalZener.ratio = {self.ratio!r}: give k_inf / k_0 >= 1")
+        if not (np.isfinite(self.fc) and self.fc > 0):
+            raise ValueError(f"FractionalZener.fc = {self.fc!r} Hz: give a transition "
+                             "frequency > 0 Hz")
+        if not (np.isfinite(self.alpha) and 0 < self.alpha <= 1):
+            raise ValueError(f"FractionalZener.alpha = {self.alpha!r}: give 0 < alpha <= 1")
+
+    def stiffness(self, kp_star: complex, omega: np.ndarray) -> np.ndarray:
+        s = (1j * np.asarray(omega, dtype=float) / (2 * np.pi * self.fc)) ** self.alpha
+        return kp_star * (1 + self.ratio * s) / (1 + s)
+
+
+@dataclass(frozen=True, kw_only=True)
+class FootDashpot:
+    """Viscous dissipation at the rail foot / fastening, in parallel with the pad:
+
+        kp*(omega) -> kp*(omega) + i Re(kp*(omega)) eta_1k (f / 1 kHz)
+
+    i.e. a dashpot c = kp eta_1k / (2 pi 1000 Hz) (N s/m) for a frequency-independent pad;
+    eta_1k is the loss factor it adds to the pad at 1 kHz (-), >= 0. Relative to kp, so
+    splitting a support keeps it."""
+
+    eta_1k: float
+
+    def __post_init__(self):
+        if not (np.isfinite(self.eta_1k) and self.eta_1k >= 0):
+            raise ValueError(f"FootDashpot.eta_1k = {self.eta_1k!r}: give a loss factor >= 0")
+
+    def stiffness(self, kp_star: complex, omega: np.ndarray) -> np.ndarray:
+        return kp_star + 1j * np.real(kp_star) * self.eta_1k * np.asarray(omega) / (2e3 * np.pi)
+
+
+@dataclass(frozen=True, kw_only=True)
+class RailAbsorber:
+    """A tuned mass-spring-damper on the rail at each support (a rail damper; modelled at
+    the support's footprint, in parallel with the support, not at mid-span):
+
+        K_a(omega) = -omega^2 m k_a* / (k_a* - omega^2 m),  k_a* = m (2 pi f_a)^2 (1 + i eta)
+
+    mass: absorber mass per support (kg) > 0; fa: tuning frequency (Hz) > 0; eta: loss
+    factor of its elastic layer (-) >= 0."""
+
+    mass: float
+    fa: float
+    eta: float = 0.3
+
+    def __post_init__(self):
+        for name in ("mass", "fa"):
+            if not (np.isfinite(getattr(self, name)) and getattr(self, name) > 0):
+                raise ValueError(f"RailAbsorber.{name} = {getattr(self, name)!r}: give a "
+                                 f"value > 0 ({'kg' if name == 'mass' else 'Hz'})")
+        if not (np.isfinite(self.eta) and self.eta >= 0):
+            raise ValueError(f"RailAbsorber.eta = {self.eta!r}: give a loss factor >= 0")
+
+    def stiffness(self, omega: np.ndarray) -> np.ndarray:
+        w = np.asarray(omega, dtype=float)
+        ka = self.mass * (2 * np.pi * self.fa) ** 2 * (1 + 1j * self.eta)
+        return -w ** 2 * self.mass * ka / (ka - w ** 2 * self.mass)
+
+
 @dataclass(frozen=True, kw_only=True)
 class SupportParameters:
     """Parameters of one support (one fastener, one rail).
@@ -55,6 +138,9 @@ class SupportParameters:
     kb: ballast stiffness per fastener and rail (N/m); 0 = voided (hanging) sleeper,
         inf = rigid ballast (the sleeper then does not move).
     eta_b: ballast loss factor (-), kb* = kb (1 + i eta_b).
+    pad_laws: frequency-dependent pad terms applied in turn to kp* (FractionalZener,
+        FootDashpot); default none (the frequency-independent pad of METHOD.md section 2).
+    absorber: a RailAbsorber acting in parallel with the support, or None.
     """
 
     kp: float
@@ -62,6 +148,8 @@ class SupportParameters:
     ms: float = DEFAULT_SLEEPER_MASS
     kb: float
     eta_b: float = 0.0
+    pad_laws: tuple = ()
+    absorber: RailAbsorber | None = None
 
     def __post_init__(self):
         _check_stiffness("kp", self.kp)
@@ -72,6 +160,14 @@ class SupportParameters:
             raise ValueError(
                 f"SupportParameters.ms = {self.ms!r} kg is not allowed: use a finite sleeper "
                 f"mass >= 0 kg per rail (0 puts pad and ballast directly in series)")
+        object.__setattr__(self, "pad_laws", tuple(self.pad_laws))
+        for law in self.pad_laws:
+            if not isinstance(law, (FractionalZener, FootDashpot)):
+                raise TypeError(f"SupportParameters.pad_laws holds {type(law).__name__}; use "
+                                "FractionalZener or FootDashpot")
+        if self.absorber is not None and not isinstance(self.absorber, RailAbsorber):
+            raise TypeError(f"SupportParameters.absorber must be a RailAbsorber or None, got "
+                            f"{type(self.absorber).__name__}")
         if self.kp == 0 and self.kb == 0 and self.ms == 0:
             log.debug("SupportParameters with kp = kb = ms = 0 is an absent support")
 
@@ -91,7 +187,11 @@ class SupportParameters:
             raise ValueError(f"support weight must be finite and >= 0, got {weight!r}")
         def scale(k):  # 0 * inf is an absent element, not NaN
             return 0.0 if weight == 0 else k * weight
-        return replace(self, kp=scale(self.kp), ms=scale(self.ms), kb=scale(self.kb))
+        absorber = self.absorber
+        if absorber is not None:  # the pad laws are relative to kp; the absorber's mass is not
+            absorber = None if weight == 0 else replace(absorber, mass=absorber.mass * weight)
+        return replace(self, kp=scale(self.kp), ms=scale(self.ms), kb=scale(self.kb),
+                       absorber=absorber)
 
 
 def _complex_stiffness(k: float, eta: float) -> complex:
@@ -116,11 +216,22 @@ def dynamic_stiffness(params: SupportParameters, omega) -> np.ndarray:
     (kp + kb = omega^2 ms) gives inf.
     """
     w = _as_omega(omega)
+    out = _chain_stiffness(params, w)
+    if params.absorber is not None:  # in parallel with the chain
+        out = out + params.absorber.stiffness(w)
+    return out
+
+
+def _chain_stiffness(params: SupportParameters, w: np.ndarray) -> np.ndarray:
     kp, zb = params.kp_complex, params.kb_complex
     if math.isinf(params.kp) and math.isinf(params.kb):
         return np.full(w.shape, complex(math.inf))
+    if not math.isinf(params.kp):
+        for law in params.pad_laws:  # frequency-dependent pad (hooks above), kp stays finite
+            kp = law.stiffness(kp, w)
+    kp = np.broadcast_to(np.asarray(kp, dtype=complex), w.shape)
     if math.isinf(params.kb):
-        return np.full(w.shape, kp, dtype=complex)
+        return np.array(kp, dtype=complex)
     z = np.asarray(zb - w**2 * params.ms, dtype=complex)  # sleeper on ballast
     if math.isinf(params.kp):
         return z
@@ -363,7 +474,7 @@ def foot_spring_weights(y_nodes, foot_width: float) -> np.ndarray:
 
 
 __all__ = [
-    "SupportParameters", "dynamic_stiffness", "support_receptance", "continuous_stiffness",
+    "FractionalZener", "FootDashpot", "RailAbsorber", "SupportParameters", "dynamic_stiffness", "support_receptance", "continuous_stiffness",
     "TrackPreset", "PRESETS", "preset", "SpringSet", "SupportLayout", "uniform_layout",
     "with_support", "foot_spring_weights", "DEFAULT_SPACING", "DEFAULT_SLEEPER_MASS",
 ]

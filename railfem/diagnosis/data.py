@@ -1,0 +1,200 @@
+"""What a diagnosis works on: records (one measurement each) split into fitted and held-out
+parts, with the covariates (temperature, static load) campaign effects need.
+
+* a hammer test (railfem.measurement.HammerMeasurement): the point mobility, the decay rate
+  and two thirds of the transfer positions are fitted; every third transfer position
+  (positions 2, 5, 8, ... counting the point as 0) is held out. Transfers more than 60 dB
+  below the point mobility are not compared. The decay rate uses all
+  positions (EN 15461), so the held-out transfers enter the fit only through it;
+* a decay rate per band (DecayRateMeasurement, a row of a table): every third band
+  (the 2nd, 5th, 8th, ...) is held out;
+* several records (a DecayRateTable, or a list of measurements): one track fitted to all
+  of them at once; campaign effects (railfem.diagnosis.effects.temperature, .preload) let
+  a parameter follow each record's covariate.
+
+The fitted and held-out parts of a record are railfem.identify.data.Targets on the same
+geometry, so one model evaluation serves both.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from railfem.identify import data as fdata
+from railfem.measurement import (DecayRateMeasurement, DecayRateTable, HammerMeasurement,
+                                 Metadata)
+
+HOLD_EVERY = 3
+DYNAMIC_RANGE_DB = 60.0
+COVARIATES = ("temperature_c", "static_load_kn")
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class Record:
+    """One measurement: name, kind ('hammer' or 'tdr'), the fitted and held-out Targets
+    (same geometry), its metadata and its covariates {name: (value, campaign mean)}."""
+
+    name: str
+    kind: str
+    fit: fdata.Target
+    held: fdata.Target | None
+    metadata: Metadata = field(default_factory=Metadata)
+    covariates: dict = field(default_factory=dict)
+    held_positions: tuple = ()
+    held_bands: tuple = ()
+
+    def covariate(self, name: str) -> tuple[float, float]:
+        if name not in self.covariates:
+            raise ValueError(f"record {self.name!r} has no {name!r} (metadata); campaign "
+                             f"effects need it on every record")
+        return self.covariates[name]
+
+    @property
+    def geometry_key(self) -> tuple:
+        t = self.fit
+        return (tuple(np.round(t.frequency, 9)), t.outputs, round(float(t.sensor_x), 9),
+                tuple(np.round(t.force_x, 9)))
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class DiagnosisData:
+    """The records diagnosed together, the sleeper spacing and a description."""
+
+    records: tuple[Record, ...]
+    spacing: float
+    description: str = ""
+
+    def __post_init__(self):
+        if not self.records:
+            raise ValueError("a diagnosis needs at least one record")
+        object.__setattr__(self, "records", tuple(self.records))
+
+    @property
+    def kinds(self) -> set:
+        return {r.kind for r in self.records}
+
+    def has_covariate(self, name: str, spread: float) -> bool:
+        """Every record has the covariate and it varies by at least ``spread``."""
+        vals = [r.covariates.get(name, (None,))[0] for r in self.records]
+        if any(v is None for v in vals) or len(vals) < 2:
+            return False
+        return max(vals) - min(vals) >= spread
+
+
+def _covariate_values(metadata: Metadata) -> dict:
+    out = {}
+    if metadata.temperature_c is not None:
+        out["temperature_c"] = float(metadata.temperature_c)
+    load = metadata.notes.get("static_load_kn") if metadata.notes else None
+    if load is not None:
+        try:
+            out["static_load_kn"] = float(load)
+        except (TypeError, ValueError):
+            raise ValueError(f"metadata notes static_load_kn = {load!r}: give the static load "
+                             "per fastener in kN as a number") from None
+    return out
+
+
+def _with_means(records: list[Record]) -> list[Record]:
+    means = {}
+    for name in COVARIATES:
+        vals = [r.covariates[name][0] for r in records if name in r.covariates]
+        if len(vals) == len(records):
+            means[name] = float(np.mean(vals))
+    return [replace(r, covariates={k: (v[0], means.get(k, v[0])) for k, v in
+                                   r.covariates.items()}) for r in records]
+
+
+def _mask(target: fdata.Target) -> fdata.Target:
+    """Transfers more than DYNAMIC_RANGE_DB below the point mobility are not compared (NaN):
+    no hammer test resolves them, and the model's eigen form of the coupling is accurate to
+    1e-8 of the largest response (railfem.identify.spectral), i.e. to 1e-5 at -60 dB."""
+    floor = np.abs(target.point)[:, :, None] * 10 ** (-DYNAMIC_RANGE_DB / 20)
+    tr = np.where(np.abs(target.transfer) >= floor, target.transfer, np.nan)
+    return replace(target, transfer=tr)
+
+
+def hammer_record(meas: HammerMeasurement, name: str = "hammer", *, sensors=None,
+                  f_range=None, hold_every: int = HOLD_EVERY, **options) -> Record:
+    """A Record of a hammer test: point, decay rate and the transfers not held out fitted."""
+    if hold_every < 2:
+        raise ValueError(f"hold_every = {hold_every!r}: hold out every n-th transfer position "
+                         "with n >= 2")
+    pos = np.asarray(meas.positions, dtype=float)
+    idx = np.arange(1, len(pos))
+    held = idx[(idx + 1) % hold_every == 0]
+    fitted = np.setdiff1d(idx, held)
+    if len(fitted) < 2 or len(held) < 1:
+        raise ValueError(f"the hammer test has {len(pos)} positions: too few to hold some out "
+                         "(need at least 4)")
+    common = dict(sensors=sensors, f_range=f_range, **options)
+    fit = _mask(fdata.hammer_target(meas, use=("point", "transfer", "tdr"),
+                                    transfer_positions=pos[fitted], **common))
+    held_t = _mask(fdata.hammer_target(meas, use=("transfer",), transfer_positions=pos[held],
+                                       **common))
+    covs = {k: (v, v) for k, v in _covariate_values(meas.metadata).items()}
+    return Record(name=name, kind="hammer", fit=fit, held=held_t, metadata=meas.metadata,
+                  covariates=covs, held_positions=tuple(pos[held].tolist()))
+
+
+def tdr_record(meas: DecayRateMeasurement, spacing: float, name: str = "tdr", *,
+               hold_every: int = HOLD_EVERY, **options) -> Record:
+    """A Record of a decay rate per band: every hold_every-th band held out."""
+    t = fdata.decay_rate_target(meas, spacing, **options)
+    k = np.arange(len(t.bands))
+    held = (k + 2) % hold_every == 0
+    valid = np.isfinite(t.tdr[:, 0])
+    if np.sum(valid & ~held) < 4 or np.sum(valid & held) < 1:
+        raise ValueError(f"record {name!r}: {int(valid.sum())} valid bands are too few to "
+                         "hold some out (need at least 5)")
+    fit = replace(t, band_weight=np.where(held, 0.0, t.band_weight))
+    held_t = replace(t, band_weight=np.where(held, t.band_weight, 0.0))
+    covs = {k_: (v, v) for k_, v in _covariate_values(meas.metadata).items()}
+    return Record(name=name, kind="tdr", fit=fit, held=held_t, metadata=meas.metadata,
+                  covariates=covs, held_bands=tuple(t.bands.nominal[held].tolist()))
+
+
+def record_name(meta: Metadata, i: int) -> str:
+    parts = [p for p in (meta.section, meta.date, meta.rail_side) if p]
+    return " ".join(parts) if parts else f"row {i}"
+
+
+def prepare(data, *, spacing: float | None = None, **options) -> DiagnosisData:
+    """DiagnosisData from a HammerMeasurement, a DecayRateMeasurement, a DecayRateTable
+    (vertical rows), a list of those, or DiagnosisData (returned as is). spacing: sleeper
+    spacing (m) for decay rates (hammer tests carry their own)."""
+    if isinstance(data, DiagnosisData):
+        return data
+    items = list(data) if isinstance(data, (list, tuple)) else [data]
+    records, spacings, desc = [], [], []
+    for i, item in enumerate(items):
+        if isinstance(item, HammerMeasurement):
+            name = record_name(item.metadata, i) if len(items) > 1 else "hammer"
+            records.append(hammer_record(item, name, **options))
+            spacings.append(item.sleeper_spacing)
+            desc.append(f"hammer test, {len(item.positions)} positions, sensors "
+                        f"{', '.join(item.sensor_names)}")
+        elif isinstance(item, (DecayRateMeasurement, DecayRateTable)):
+            rows = item.rows() if isinstance(item, DecayRateTable) else [item]
+            rows = [r for r in rows if r.direction == "z"]
+            if not rows:
+                raise ValueError("the decay rates hold no vertical rows (direction 'z'/'v'); "
+                                 "the track models are vertical")
+            if spacing is None:
+                raise ValueError("diagnosing a decay rate needs the sleeper spacing (m), "
+                                 "e.g. spacing=0.6")
+            for j, r in enumerate(rows):
+                records.append(tdr_record(r, spacing, record_name(r.metadata, j), **options))
+            spacings.append(spacing)
+            desc.append(f"{len(rows)} decay rate(s) per band")
+        else:
+            raise TypeError(f"cannot diagnose {type(item).__name__}: give a "
+                            "HammerMeasurement, DecayRateMeasurement or DecayRateTable")
+    if spacing is None:
+        spacing = spacings[0]
+    if any(abs(s - spacing) > 1e-9 for s in spacings):
+        raise ValueError(f"the records have different sleeper spacings {sorted(set(spacings))} "
+                         "m: diagnose them separately")
+    return DiagnosisData(records=tuple(_with_means(records)), spacing=float(spacing),
+                         description="; ".join(desc))

@@ -1,0 +1,132 @@
+"""The effect library: physical mechanisms the base track model lacks (METHOD.md section 9).
+
+Each effect is one small module of this package defining ``EFFECT = Effect(...)``; the
+registry (``REGISTRY``, ``get``, ``names``) finds every such module, so adding an effect is
+one module (and its test). An effect has parameters with bounds and a physical meaning and
+enters the model in one of four ways (``Effect.kind``):
+
+* ``spec``: ``apply(spec, theta, record) -> spec`` changes the track (a support law, the pad
+  length, a weak support at some index);
+* ``geometry``: ``geometry(theta, record) -> (sensor shift, hammer shift)`` moves where the
+  model is evaluated (m);
+* ``measurement``: ``apply_measurement(receptance, theta, record) -> receptance`` acts after
+  the model, on the (nf, n_out, n_pos) receptance the data are compared with (the sensor's
+  mounting, an additive noise floor);
+* ``campaign``: a ``spec`` effect whose change depends on each record's metadata (its
+  temperature, its static load): it needs several records that differ in that covariate.
+
+``theta`` is a dict {parameter name: SI value}. Parameters in ``Effect.grid`` are not
+differentiated: the refit profiles over the listed values (each a new kernel or a discrete
+choice such as a support index); a grid may also be categorical (which sensor) and then
+has no EffectParameter. A numeric grid value may be refined between its best neighbours.
+"""
+from __future__ import annotations
+
+import importlib
+import pkgutil
+from dataclasses import dataclass, field
+from typing import Callable
+
+from railfem.params import Parameter
+
+KINDS = ("spec", "geometry", "measurement", "campaign")
+
+
+@dataclass(frozen=True, kw_only=True)
+class EffectParameter:
+    """One parameter of an effect: name, SI unit, bounds, log10 scale or not, a start value
+    and what it means physically."""
+
+    name: str
+    unit: str
+    lower: float
+    upper: float
+    log: bool
+    start: float
+    meaning: str
+
+    def __post_init__(self):
+        if not self.lower < self.upper or (self.log and self.lower <= 0):
+            raise ValueError(f"EffectParameter {self.name}: bounds ({self.lower}, "
+                             f"{self.upper}) need lower < upper (and > 0 on a log scale)")
+        if not self.lower <= self.start <= self.upper:
+            raise ValueError(f"EffectParameter {self.name}: start {self.start} is outside "
+                             f"its bounds ({self.lower}, {self.upper})")
+
+    def parameter(self) -> Parameter:
+        """As a railfem.params.Parameter (encode/decode between SI and vector units)."""
+        return Parameter(name=self.name, unit=self.unit, log=self.log, lower=self.lower,
+                         upper=self.upper)
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class Effect:
+    """A candidate model extension (see the module docstring)."""
+
+    name: str
+    title: str
+    meaning: str
+    kind: str
+    parameters: tuple[EffectParameter, ...]
+    apply: Callable | None = None
+    apply_measurement: Callable | None = None
+    geometry: Callable | None = None
+    grid: dict = field(default_factory=dict)
+    needs: tuple[str, ...] = ()
+    quantities: tuple[str, ...] = ("point", "phase", "transfer", "tdr")
+
+    def __post_init__(self):
+        if self.kind not in KINDS:
+            raise ValueError(f"Effect {self.name}: kind {self.kind!r}, use one of {KINDS}")
+        hook = {"spec": self.apply, "campaign": self.apply, "geometry": self.geometry,
+                "measurement": self.apply_measurement}[self.kind]
+        if hook is None:
+            raise ValueError(f"Effect {self.name} of kind {self.kind!r} has no hook")
+        names = [p.name for p in self.parameters]
+        if len(set(names)) != len(names):
+            raise ValueError(f"Effect {self.name}: repeated parameter names {names}")
+        for k, values in self.grid.items():
+            if not values:
+                raise ValueError(f"Effect {self.name}: grid {k!r} has no values")
+
+    @property
+    def continuous(self) -> tuple[EffectParameter, ...]:
+        """The parameters fitted by least squares (all but the grid ones)."""
+        return tuple(p for p in self.parameters if p.name not in self.grid)
+
+    def describe(self) -> dict:
+        """JSON-ready: name, title, meaning, parameters with bounds, grids."""
+        return {"name": self.name, "title": self.title, "meaning": self.meaning,
+                "kind": self.kind,
+                "parameters": [{"name": p.name, "unit": p.unit, "lower": p.lower,
+                                "upper": p.upper, "scale": "log10" if p.log else "linear",
+                                "meaning": p.meaning} for p in self.parameters],
+                "grid": {k: list(v) for k, v in self.grid.items()},
+                "needs": list(self.needs)}
+
+
+def _discover() -> dict[str, Effect]:
+    out = {}
+    for info in sorted(pkgutil.iter_modules(__path__), key=lambda m: m.name):
+        mod = importlib.import_module(f"{__name__}.{info.name}")
+        eff = getattr(mod, "EFFECT", None)
+        if isinstance(eff, Effect):
+            if eff.name in out:
+                raise RuntimeError(f"two effect modules define {eff.name!r}")
+            out[eff.name] = eff
+    return out
+
+
+REGISTRY: dict[str, Effect] = _discover()
+
+
+def names() -> tuple[str, ...]:
+    return tuple(REGISTRY)
+
+
+def get(name: str) -> Effect:
+    try:
+        return REGISTRY[name]
+    except KeyError:
+        raise ValueError(f"unknown effect {name!r}; the library has {', '.join(REGISTRY)}") \
+            from None

@@ -1,0 +1,232 @@
+"""The model at a record's geometry, for any spec an effect produces, cheaply.
+
+* uniform discrete tracks (wfe-discrete, timoshenko-discrete): one parameter-free kernel
+  per (rail loss factor, pad length) and record, covering at once every geometry shift the
+  candidate effects ask for (sensor and hammer position errors), in the eigen form of the
+  coupling (railfem.identify.spectral): a support change, a pad law or a rail absorber then
+  costs a short sum per frequency (milliseconds);
+* anything else (deviating supports, the periodic and continuous models): the door
+  (railfem.models.receptance), whose kernels are cached by content, so a deviation change
+  costs the coupling solve. Deviating supports need positions well inside the supported
+  stretch: n_supports is raised so that 20 m of supports lie beyond every position.
+"""
+from __future__ import annotations
+
+import logging
+import math
+
+import numpy as np
+
+from railfem import models
+from railfem.identify.forward import Geometry, SpectralEngine
+from railfem.identify.spectral import SpectralCoupling, check, spectral_coupling
+from railfem.supports import SupportParameters, dynamic_stiffness
+
+log = logging.getLogger(__name__)
+
+UNIFORM = ("wfe-discrete", "timoshenko-discrete")
+MARGIN = 20.0  # m of supports beyond the outermost position of a track with deviations
+SPECTRAL_TOLERANCE = 1e-8
+
+
+def plain_support(p: SupportParameters) -> SupportParameters:
+    """The support without the diagnosis hooks (what a kernel's check uses)."""
+    return SupportParameters(kp=p.kp, eta_p=p.eta_p, ms=p.ms, kb=p.kb, eta_b=p.eta_b)
+
+
+def shifted(record, shift) -> tuple[float, np.ndarray]:
+    """(sensor x, force x) of ``record`` with the sensor moved by shift[0] and the hammer
+    positions (not the point) by shift[1] (m)."""
+    t = record.fit
+    ds, dh = float(shift[0]), float(shift[1])
+    sx = float(t.sensor_x) + ds
+    pos = np.asarray(t.positions, dtype=float) + np.where(np.arange(len(t.positions)) > 0,
+                                                          dh, 0.0)
+    return sx, sx + pos
+
+
+def eigen_receptance(sc: SpectralCoupling, Ks: np.ndarray) -> np.ndarray:
+    """SpectralCoupling.receptance as one batched matrix product (what it computes with
+    einsum, several times faster for the sizes of a hammer test)."""
+    Ks = np.asarray(Ks, dtype=complex)[:, None]
+    g = (Ks / (1.0 + Ks * sc.lam))[:, None, :]  # (nf, 1, m)
+    nf, m = sc.lam.shape
+    return sc.direct - (g @ sc.residue.reshape(nf, m, -1))[:, 0, :].reshape(sc.direct.shape)
+
+
+class Evaluator:
+    """receptance(spec, record, shift) -> (nf, n_out, n_pos) m/N at the record's geometry.
+
+    shifts: {record name: [(sensor shift, hammer shift), ...]} the geometry effects will
+    ask for (one kernel serves them all); cache: the door's kernel cache."""
+
+    def __init__(self, *, cache=False, shifts=None):
+        self.cache = cache
+        self.shifts = {k: sorted({(0.0, 0.0), *map(tuple, v)}) for k, v in
+                       (shifts or {}).items()}
+        self._banks: dict = {}
+        self.n_kernels = 0
+
+    def receptance(self, spec, record, shift=(0.0, 0.0)) -> np.ndarray:
+        shift = (float(shift[0]), float(shift[1]))
+        if spec.model in UNIFORM and spec.uniform:
+            if shift == (0.0, 0.0):
+                sc = self._plain(spec, record)
+            else:
+                shifts = self.shifts.get(record.name, [(0.0, 0.0)])
+                if shift not in shifts:  # an unregistered shift: a kernel of its own
+                    shifts = [(0.0, 0.0), shift]
+                sc = self._bank(spec, record, tuple(shifts))[shift]
+            a = eigen_receptance(sc, dynamic_stiffness(spec.support, 2 * np.pi * sc.frequency))
+            n_out = len(record.fit.outputs)
+            return np.repeat(a, n_out, axis=1) if a.shape[1] != n_out else a
+        t = record.fit
+        sx, fx = shifted(record, shift)
+        if (spec.model == "timoshenko-discrete" and len(spec.deviations) == 1
+                and shift == (0.0, 0.0) and spec.pad_length == 0):
+            return self._one_deviation(spec, record)
+        if spec.deviations:
+            need = int(2 * math.ceil((max(np.abs(fx).max(), abs(sx)) + MARGIN)
+                                     / spec.spacing) + 1)
+            if spec.n_supports < need:
+                spec = spec.replace(n_supports=need)
+        a = models.receptance(spec, t.frequency, fx, [sx], outputs=t.outputs,
+                              cache=self.cache)
+        return a[:, :, 0, :]
+
+    def _one_deviation(self, spec, record) -> np.ndarray:
+        """A beam track with one deviating support: the uniform track's eigen form plus a
+        rank-one (Sherman-Morrison) update; exact, see OneDeviation."""
+        dev = spec.deviations[0]
+        uni = spec.replace(deviations=())
+        key = (record.geometry_key, "one-deviation", spec.model, float(spec.rail.eta),
+               spec.spacing, spec.n_supports, spec.rail, spec.numerics)
+        if key not in self._banks:
+            t = record.fit
+            canon = uni.replace(support=plain_support(uni.support))
+            log.info("diagnosis: eigen form of the beam track for one deviating support "
+                     "(%s, eta_r %.4g)", record.name, spec.rail.eta)
+            kernel, jr, jf = models.discrete_kernel(canon, t.frequency, t.force_x,
+                                                    [t.sensor_x], outputs=t.outputs,
+                                                    cache=self.cache)
+            self._banks[key] = OneDeviation(kernel, jr[0], jf[0], t.sensor_x, t.force_x,
+                                            spec.spacing)
+            self.n_kernels += 1
+        w = 2 * np.pi * record.fit.frequency
+        K = dynamic_stiffness(uni.support, w)
+        dK = dynamic_stiffness(dev.apply(uni.support), w) - K
+        a = self._banks[key].receptance(K, dK, dev.index)[:, None, :]
+        return np.repeat(a, len(record.fit.outputs), axis=1)
+
+    def _plain(self, spec, record) -> SpectralCoupling:
+        """The record's own geometry: railfem.identify's engine, so the kernel and its
+        eigen form computed by the base fit are reused (same content keys)."""
+        key = (record.geometry_key, "plain", spec.model, float(spec.rail.eta),
+               float(spec.pad_length), spec.spacing, spec.n_rows, spec.n_supports,
+               spec.rail, spec.numerics)
+        if key not in self._banks:
+            t = record.fit
+            geo = Geometry(frequency=t.frequency, outputs=t.outputs, sensor_x=t.sensor_x,
+                           force_x=t.force_x)
+            log.info("diagnosis: kernel of %s for %s (eta_r %.4g, pad length %.3g m)",
+                     spec.model, record.name, spec.rail.eta, spec.pad_length)
+            canon = spec.replace(support=plain_support(spec.support))
+            self._banks[key] = SpectralEngine(canon, geo, cache=self.cache).coupling
+            self.n_kernels += 1
+        return self._banks[key]
+
+    def _bank(self, spec, record, shifts) -> dict:
+        key = (record.geometry_key, shifts, spec.model, float(spec.rail.eta),
+               float(spec.pad_length), spec.spacing, spec.n_rows, spec.n_supports, spec.rail,
+               spec.numerics)
+        if key in self._banks:
+            return self._banks[key]
+        t = record.fit
+        geo = [shifted(record, s) for s in shifts]
+        rx = np.unique(np.round([g[0] for g in geo], 10))
+        fx = np.unique(np.round(np.concatenate([g[1] for g in geo]), 10))
+        canon = spec.replace(support=plain_support(spec.support))
+        log.info("diagnosis: kernel of %s for %s (eta_r %.4g, pad length %.3g m, %d "
+                 "geometries)", spec.model, record.name, spec.rail.eta, spec.pad_length,
+                 len(shifts))
+        kernel, jr, jf = models.discrete_kernel(canon, t.frequency, fx, rx,
+                                                outputs=t.outputs, cache=self.cache)
+        self.n_kernels += 1
+        pattern = canon.layout().springs().weight
+        pairs_r, pairs_f, sel = [], [], {}
+        for s, (sx, f_) in zip(shifts, geo):
+            r = int(np.searchsorted(rx, round(sx, 10)))
+            c = np.searchsorted(fx, np.round(f_, 10))
+            sel[s] = np.arange(len(pairs_r), len(pairs_r) + len(c))
+            pairs_r += [jr[r, ci] for ci in c]
+            pairs_f += [jf[r, ci] for ci in c]
+        sc = spectral_coupling(kernel, pattern, np.array(pairs_r), np.array(pairs_f))
+        omega = 2 * np.pi * t.frequency
+        err = check(sc, kernel, pattern, np.array(pairs_r), np.array(pairs_f),
+                    dynamic_stiffness(canon.support, omega))
+        if err > SPECTRAL_TOLERANCE:
+            raise RuntimeError(f"the eigen form of the coupling differs from the direct "
+                               f"solve by {err:.1e} for {spec.model}")
+        bank = {s: SpectralCoupling(frequency=sc.frequency, lam=sc.lam,
+                                    residue=sc.residue[..., idx], direct=sc.direct[..., idx])
+                for s, idx in sel.items()}
+        self._banks[key] = bank
+        return bank
+
+
+class OneDeviation:
+    """A uniform beam track (one spring per support) with one support's stiffness changed
+    by dK: with alpha_ss = V diag(lam) V^-1 (per frequency) and h = 1 / (1 + K lam),
+
+        u = u_0 - dK (alpha_rs d)(G_jP) / (1 + dK s),   d = V (h * V^-1 e_j),
+        s = alpha_ss[j, :] d,   G_jP = alpha_sP[j] - alpha_ss[j, :] V diag(K h) V^-1 alpha_sP
+
+    (Sherman-Morrison on (I + K alpha_ss) F = K alpha_sP P with row j changed; u_0 the
+    uniform track, G_jP the uniform track's deflection at support j). Each hammer pair is
+    solved on supports re-centred on it (railfem.models), so support J sits at kernel index
+    centre + J - round((x_s + x_P) / 2d)."""
+
+    def __init__(self, kernel, jr, jf, sensor_x, force_x, spacing):
+        n_s = kernel.ss_index.shape[0]
+        if len(kernel.spring_weight) != 1:
+            raise ValueError("OneDeviation needs one spring per support (the beam)")
+        nf = len(kernel.frequency)
+        n_pair = len(jf)
+        self.centre = (n_s - 1) // 2
+        self.k = np.round((sensor_x + np.asarray(force_x)) / (2 * spacing)).astype(int)
+        self.n_s = n_s
+        self.lam = np.empty((nf, n_s), dtype=complex)
+        self.VB = np.empty((nf, n_s, n_pair), dtype=complex)  # V^-1 alpha_sP (pairs)
+        self.GV = np.empty((nf, n_pair, n_s), dtype=complex)  # alpha_rs V (pairs)
+        self.direct = np.empty((nf, n_pair), dtype=complex)
+        self.V = np.empty((nf, n_s, n_s), dtype=complex)
+        self.Vinv = np.empty((nf, n_s, n_s), dtype=complex)
+        self.B = np.empty((nf, n_s, n_pair), dtype=complex)
+        for i in range(nf):
+            A = kernel.ss[i][kernel.ss_index, 0, 0]
+            B = kernel.sP[i][kernel.sP_index, 0][:, jf]
+            G = kernel.rs[i][kernel.rs_index, 0, 0][jr, :]
+            lam, V = np.linalg.eig(A)
+            Vinv = np.linalg.inv(V)
+            self.lam[i], self.V[i], self.Vinv[i], self.B[i] = lam, V, Vinv, B
+            self.VB[i] = Vinv @ B
+            self.GV[i] = G @ V
+            self.direct[i] = kernel.rP[i][kernel.rP_index, 0][jr, jf]
+
+    def receptance(self, K, dK, index: int) -> np.ndarray:
+        """(nf, n_pair) receptance with support ``index`` (absolute) changed by dK (nf,)."""
+        K = np.asarray(K, dtype=complex)[:, None]
+        h = 1.0 / (1.0 + K * self.lam)  # (nf, n)
+        u0 = self.direct - np.einsum("fpm,fm,fmp->fp", self.GV, K * h, self.VB)
+        j = self.centre + int(index) - self.k  # (n_pair,)
+        ok = (j >= 0) & (j < self.n_s)
+        jj = np.where(ok, j, 0)
+        p = np.arange(len(jj))
+        AjV = self.V[:, jj, :] * self.lam[:, None, :]  # alpha_ss[j, :] V = (V Lambda)[j]
+        vj = np.transpose(self.Vinv[:, :, jj], (0, 2, 1))  # (nf, pair, m) = V^-1[:, j]
+        s = np.einsum("fpm,fm,fpm->fp", AjV, h, vj)
+        rd = np.einsum("fpm,fm,fpm->fp", self.GV, h, vj)
+        g = self.B[:, jj, p] - np.einsum("fpm,fm,fmp->fp", AjV, K * h, self.VB)
+        dK = np.asarray(dK, dtype=complex)[:, None]
+        u = u0 - dK * rd * g / (1.0 + dK * s)
+        return np.where(ok[None, :], u, u0)

@@ -1,0 +1,440 @@
+"""The search: calibrate the base model, test its residual, refit with every candidate
+effect (and the best pairs), score, validate on held-out data, and decide.
+
+    from railfem.diagnosis import diagnose
+    d = diagnose(rf.io.read_measurement("site_b/"), model="wfe-discrete")
+    d.verdict, d.statement, d.chosen
+
+1. **Base**: railfem.identify.fit on the first record's point mobility and decay rate
+   (multi-start, the rail loss factor profiled) gives the start; the base model (kp,
+   eta_p, kb, eta_b, eta_r) is then refitted to the fitted part of all records
+   (railfem.diagnosis.refit), the rail loss factor profiled over kernels (beam models; a
+   WFE model keeps the base fit's value: each WFE kernel costs about a minute).
+2. **Residual** of the base (railfem.diagnosis.residual): noise or structure.
+3. **Candidates**: every applicable effect of the library is refitted with the base
+   parameters; with a beam model the rail loss factor is then profiled on a lattice of
+   kernels shared by all candidates (the base's rail loss absorbed part of any damping
+   effect), and a pad length is profiled jointly with it. Each is scored by AICc and BIC
+   on the fitted data and by its error on the held-out data.
+4. **Gates** (all needed to keep a candidate): *plausible* (continuous parameters inside
+   their bounds, not within 1 % of the range of one, and not unidentifiable);
+   *better on held-out data by more than the noise explains*: the mean squared held-out
+   residual (scaled) falls by >= MIN_GAIN and the paired one-sided t-test over held-out
+   blocks (band x sensor x position cells) rejects "no improvement" at ALPHA;
+   *supported*: BIC below the base's by more than DELTA_BIC.
+5. **Pairs** of the (up to three) best kept candidates, kept over the best single by the
+   same gates.
+6. **Decision**: the best kept model is refitted with the rail loss factor profiled; if its
+   residual is noise (railfem.diagnosis.residual.structure_test) or its structured part is
+   below NEGLIGIBLE_DB, the effect *explains* the residual; if structure remains it
+   *partly explains* it; with no kept candidate "no candidate explains the residual". When
+   the base residual is already noise, nothing is claimed.
+"""
+from __future__ import annotations
+
+import logging
+import math
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+from scipy import stats
+
+from railfem.diagnosis import effects as library
+from railfem.diagnosis import residual as resid
+from railfem.diagnosis.data import DiagnosisData, prepare
+from railfem.diagnosis.evaluate import Evaluator
+from railfem.diagnosis.refit import (BASE, REFINE_STEPS, Outcome, Problem,
+                                     interval_from_profile, noise_scale, profile_eta_r,
+                                     refit)
+from railfem.identify import data as fdata
+from railfem.spec import TrackSpec, preset
+
+log = logging.getLogger(__name__)
+
+ALPHA = 0.01
+MIN_GAIN = 0.10
+DELTA_BIC = 10.0
+BOUND_MARGIN = 0.01
+WFE_ETA_R_STEPS = 1
+WFE_REFINE_STEPS = 1  # parabolic steps of a geometry / pad-length grid with a WFE model
+WFE_PAD_LENGTHS = (0.08, 0.16, 0.24)
+COVARIATE_SPREAD = {"temperature_c": 5.0, "static_load_kn": 10.0}
+
+
+@dataclass
+class Diagnosis:
+    """What diagnose found (see the module docstring); ``to_dict`` is diagnosis.json."""
+
+    data: DiagnosisData
+    model: str
+    base: Outcome
+    base_fit: object
+    structure_before: dict
+    residual_before: resid.Residual
+    candidates: list
+    chosen: Outcome | None
+    chosen_row: dict | None
+    verdict: str
+    statement: str
+    structure_after: dict | None = None
+    residual_after: resid.Residual | None = None
+    seconds: dict = field(default_factory=dict)
+    skipped: dict = field(default_factory=dict)
+
+    @property
+    def ranking(self) -> list[str]:
+        return [c["name"] for c in self.candidates]
+
+
+def applicable(effect, data: DiagnosisData, model: str):
+    """(True, '') or (False, reason)."""
+    for need in effect.needs:
+        if need == "discrete" and model.endswith("continuous"):
+            return False, f"needs discrete supports (model {model})"
+        if need == "deviations" and model.startswith("wfe"):
+            return False, ("a deviating support needs the full coupling solve of the WFE "
+                           "track per evaluation (seconds, hundreds of them): diagnose with "
+                           "timoshenko-discrete for this effect")
+        if need == "hammer" and "hammer" not in data.kinds:
+            return False, "needs hammer FRFs (the data are decay rates only)"
+        if need.startswith("covariate:"):
+            name = need.split(":", 1)[1]
+            if not data.has_covariate(name, COVARIATE_SPREAD.get(name, 0.0)):
+                return False, (f"needs several records whose {name} differs by >= "
+                               f"{COVARIATE_SPREAD.get(name, 0.0):g}")
+    if not any(q in effect.quantities for r in data.records for q in r.fit.use):
+        return False, "acts on none of the quantities the data hold"
+    return True, ""
+
+
+def grid_values(effect, data: DiagnosisData, model: str = "") -> dict:
+    """Categorical grids restricted to what the data have (sensors); with a WFE model the
+    pad-length grid is thinned to three values (each is a WFE kernel)."""
+    out = {}
+    if effect.name == "pad_length" and model.startswith("wfe"):
+        out[(effect.name, "pad_length")] = WFE_PAD_LENGTHS
+    if effect.name == "sensor_resonance":
+        outs = sorted({o for r in data.records for o in r.fit.outputs})
+        out[(effect.name, "sensor")] = ("all",) + (tuple(outs) if len(outs) > 1 else ())
+    return out
+
+
+def held_gate(ref: Outcome, cand: Outcome, pred_ref=None, pred_c=None) -> dict:
+    """Held-out comparison of cand against ref (same scales): MSE, reduction, paired t."""
+    pr = ref.problem.predict(ref.x) if pred_ref is None else pred_ref
+    pc = cand.problem.predict(cand.x) if pred_c is None else pred_c
+    scale = ref.problem.scale
+    d, a_all, b_all = [], [], []
+    for r in ref.problem.data.records:
+        t = r.held
+        if t is None:
+            continue
+        ta, tb = fdata.residual_table(t, pr[r.name]), fdata.residual_table(t, pc[r.name])
+        for q in ta:
+            a = np.asarray(ta[q]) / scale.get(q, 1.0)
+            b = np.asarray(tb[q]) / scale.get(q, 1.0)
+            if q == "tdr":
+                cells = [(a[k, o], b[k, o]) for k in range(a.shape[0])
+                         for o in range(a.shape[1])]
+            else:
+                a3 = a.reshape(a.shape[0], a.shape[1], -1)
+                b3 = b.reshape(b.shape[0], b.shape[1], -1)
+                cells = []
+                for lo, hi in zip(t.bands.lower, t.bands.upper):
+                    m = (t.frequency >= lo) & (t.frequency < hi)
+                    for o in range(a3.shape[1]):
+                        for j in range(a3.shape[2]):
+                            cells.append((a3[m, o, j], b3[m, o, j]))
+            for x, y in cells:
+                x, y = np.atleast_1d(x), np.atleast_1d(y)
+                ok = np.isfinite(x) & np.isfinite(y)
+                if ok.any():
+                    d.append(np.mean(x[ok] ** 2) - np.mean(y[ok] ** 2))
+                    a_all.append(x[ok])
+                    b_all.append(y[ok])
+    if not d:
+        return {"blocks": 0, "pass": False, "reduction": None}
+    d = np.array(d)
+    mse_ref = float(np.mean(np.concatenate(a_all) ** 2))
+    mse_c = float(np.mean(np.concatenate(b_all) ** 2))
+    sd = float(np.std(d, ddof=1)) if len(d) > 1 else float("inf")
+    tval = float(np.mean(d) / (sd / math.sqrt(len(d)))) if sd > 0 else (
+        float("inf") if np.mean(d) > 0 else 0.0)
+    p = float(stats.t.sf(tval, len(d) - 1)) if len(d) > 1 else 1.0
+    red = 1 - mse_c / mse_ref if mse_ref > 0 else 0.0
+    return {"blocks": int(len(d)), "mse_ref": mse_ref, "mse": mse_c, "reduction": red,
+            "t": tval, "p": p, "pass": bool(p < ALPHA and red >= MIN_GAIN)}
+
+
+def plausibility(o: Outcome) -> tuple[bool, str]:
+    box = o.problem.box
+    lo, hi = box.lower, box.upper
+    for i, p in enumerate(box.parameters):
+        if "." not in p.name:
+            continue
+        margin = BOUND_MARGIN * (hi[i] - lo[i])
+        if o.x[i] - lo[i] < margin or hi[i] - o.x[i] < margin:
+            return False, f"{p.name} = {p.decode(o.x[i]):.4g} {p.unit} is at a bound"
+        ident = o.analysis["parameters"][i]["identifiable"]
+        if ident == "no":
+            return False, f"{p.name} is not identifiable: {o.analysis['parameters'][i]['reason']}"
+    for (e, n), prof in o.grid_profiles.items():
+        eff = library.get(e)
+        par = {p.name: p for p in eff.parameters}.get(n)
+        if par is not None and not par.lower < prof["value"] < par.upper:
+            return False, f"{e}.{n} = {prof['value']:.4g} is at a bound"
+    return True, ""
+
+
+def joint_profile(data, ev, spec_b, effect, start: Outcome, scale, gv) -> Outcome:
+    """A numeric kernel grid parameter (one) profiled with the rail loss factor free at
+    every value (a lattice profile each), then one parabolic step in the grid parameter;
+    its profile and 95 % interval come from these costs."""
+    (key,) = [(effect.name, n) for n in effect.grid]
+    values = sorted(gv.get(key, effect.grid[key[1]]))
+    done = {}
+
+    def at(v):
+        v = float(v)
+        if v not in done:
+            near = min(done, key=lambda u: abs(u - v)) if done else None
+            x0 = (done[near] if near is not None else start).x
+            o = refit(data, ev, spec_b.replace(eta_r=(done[near] if near is not None else
+                                                      start).eta_r),
+                      (effect,), x0[:len(BASE)], scale, grid_values={key: (v,)},
+                      refine=False, x_start=x0)
+            done[v] = profile_eta_r(data, ev, spec_b, (effect,), o, scale, max_steps=6,
+                                    refine=True)  # a smooth profile for the steps below
+        return done[v]
+
+    for v in values:
+        at(v)
+    for _ in range(REFINE_STEPS):
+        v = np.array(sorted(done))
+        c = np.array([done[u].cost for u in v])
+        k = int(np.argmin(c))
+        if not 0 < k < len(v) - 1:
+            break
+        A = np.vstack([v[k - 1:k + 2] ** 2, v[k - 1:k + 2], np.ones(3)]).T
+        a, b, _ = np.linalg.solve(A, c[k - 1:k + 2])
+        if a <= 0:
+            break
+        new = float(np.clip(-b / (2 * a), v[k - 1], v[k + 1]))
+        if min(abs(new - v)) < 1e-4 * (values[-1] - values[0]):
+            break
+        at(new)
+    v = sorted(done)
+    best = done[min(v, key=lambda u: done[u].cost)]
+    prof = {"values": [float(u) for u in v], "cost": [float(done[u].cost) for u in v],
+            "value": float(best.grid[key]), "integer": False,
+            "note": "rail loss factor refitted at every value"}
+    prof.update(interval_from_profile(prof, best.analysis["residual_variance"]))
+    best.grid_profiles = {key: prof}
+    return best
+
+
+def _row(o: Outcome, ref: Outcome, base: Outcome, gate: dict, ok: bool, why: str) -> dict:
+    return {"name": o.name, "effects": [e.name for e in o.effects], "k": o.k, "n": o.n,
+            "cost": o.cost, "aicc": o.aicc, "bic": o.bic,
+            "delta_aicc": o.aicc - base.aicc, "delta_bic": o.bic - base.bic,
+            "reference": ref.name, "held_out": gate, "plausible": ok, "implausible_why": why,
+            "theta": {e: {k: (v if isinstance(v, str) else float(v)) for k, v in th.items()}
+                      for e, th in o.theta().items()},
+            "parameters": o.parameters()}
+
+
+def _kept(row: dict, ref_bic: float) -> bool:
+    return bool(row["plausible"] and row["held_out"].get("pass")
+                and row["bic"] < ref_bic - DELTA_BIC)
+
+
+def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None,
+             effects=None, spacing: float | None = None, pairs: bool = True,
+             n_starts: int = 4, workers: int = 1, cache=False, seed: int = 0,
+             profile_final: bool = True, max_pairs: int = 3,
+             data_options=None) -> Diagnosis:
+    """Diagnose ``data`` (a HammerMeasurement, DecayRateMeasurement/Table, a list of them or
+    DiagnosisData) with track model ``model``; ``effects``: names from the library
+    (default all); ``base``: the spec whose other values are kept (default the site
+    preset); ``data_options``: to railfem.diagnosis.data.prepare (e.g. f_range=(50, 2000),
+    sensors=['head']). See the module docstring for the steps."""
+    from railfem.identify import fit as identify_fit
+
+    t0 = time.perf_counter()
+    seconds = {}
+    data = prepare(data, spacing=spacing, **(data_options or {}))
+    spec0 = (base if base is not None else preset("site")).replace(model=model,
+                                                                   spacing=data.spacing)
+    names = library.names() if effects is None else tuple(effects)
+    for n in names:
+        library.get(n)
+    cands, skipped = [], {}
+    for n in names:
+        ok, why = applicable(library.get(n), data, model)
+        (cands.append(library.get(n)) if ok else skipped.__setitem__(n, why))
+    shifts = {}
+    for e in cands:
+        if e.kind == "geometry":
+            for v in e.grid[e.parameters[0].name]:
+                s = e.geometry({e.parameters[0].name: v}, None)
+                for r in data.records:
+                    shifts.setdefault(r.name, set()).add((float(s[0]), float(s[1])))
+    ev = Evaluator(cache=cache, shifts=shifts)
+
+    # 1. base
+    t = time.perf_counter()
+    first = data.records[0]
+    start_target = first.fit  # the start: point and decay rate (the fitter takes no NaN)
+    if "transfer" in start_target.use:
+        start_target = replace(start_target, use=tuple(q for q in start_target.use
+                                                       if q != "transfer"))
+    # bounds widened by 1e-9: identify.fit's box check fails on 10 ** log10(upper) > upper
+    from railfem.identify.fit import FIT_BOUNDS
+    wide = {n: (FIT_BOUNDS[n][0] * (1 - 1e-9), FIT_BOUNDS[n][1] * (1 + 1e-9))
+            for n in BASE + ("eta_r",)}
+    fr = identify_fit(start_target, model, parameters=BASE + ("eta_r",), base=spec0,
+                      bounds=wide,
+                      n_starts=n_starts, workers=workers, cache=cache, profiles=(), seed=seed,
+                      slow_nodes=None if model.startswith("wfe") else 3,
+                      slow_refine=None if model.startswith("wfe") else 2)  # a start
+    spec_b = spec0.replace(eta_r=fr.spec.rail.eta)
+    x0 = np.array([math.log10(getattr(fr.spec.support, n)) for n in BASE])
+    scale = noise_scale(Problem(data=data, evaluator=ev, spec=spec_b, scale={}), x0)
+    wfe = model.startswith("wfe")
+    steps = WFE_ETA_R_STEPS if wfe else None  # every step is a kernel: tens of s for WFE
+    base_o = refit(data, ev, spec_b, (), x0, scale)
+    if profile_final and not wfe:  # WFE: the base fit's own profile (its kernels) stands
+        base_o = profile_eta_r(data, ev, spec_b, (), base_o, scale, max_steps=steps)
+    spec_b = spec_b.replace(eta_r=base_o.eta_r)
+    x_base = base_o.x[:len(BASE)]
+    pred_base = base_o.problem.predict(base_o.x)
+    res_before = resid.make_residual(data, pred_base)
+    repeats = resid.repeat_scatter(data)
+    st_before = resid.structure_test(res_before, n_parameters=base_o.k, repeats=repeats)
+    seconds["base"] = time.perf_counter() - t
+    log.info("diagnosis: base %s, residual %s (p = %.3g, structured %.2f dB)", model,
+             st_before["verdict"], st_before["p"], st_before["structured_rms_db"])
+
+    # 2. single candidates (eta_r at the base value)
+    t = time.perf_counter()
+    outcomes, rows = {}, []
+    for e in cands:
+        te = time.perf_counter()
+        try:
+            o = refit(data, ev, spec_b, (e,), x_base, scale,
+                      grid_values=grid_values(e, data, model),
+                      refine_steps=WFE_REFINE_STEPS if wfe else REFINE_STEPS)
+        except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
+            skipped[e.name] = f"refit failed: {exc}"
+            log.warning("diagnosis: %s failed: %s", e.name, exc)
+            continue
+        if profile_final and not wfe:  # the base's rail loss absorbed part of the effect
+            o = profile_eta_r(data, ev, spec_b, (e,), o, scale, max_steps=6, refine=False)
+            if e.kind == "spec" and any(n != "index" for n in e.grid):
+                # a kernel grid (pad length) trades against the rail loss: profile both
+                o2 = joint_profile(data, ev, spec_b, e, o, scale, grid_values(e, data, model))
+                o = o2 if o2.cost < o.cost else o
+        gate = held_gate(base_o, o, pred_ref=pred_base)
+        ok, why = plausibility(o)
+        row = _row(o, base_o, base_o, gate, ok, why)
+        row["seconds"] = time.perf_counter() - te
+        outcomes[o.name] = o
+        rows.append(row)
+        log.info("diagnosis: %s: dBIC %.1f, held-out %s %.0f %%, %s (%.1f s)", o.name,
+                 row["delta_bic"], "pass" if gate.get("pass") else "fail",
+                 100 * (gate.get("reduction") or 0), "plausible" if ok else why,
+                 row["seconds"])
+    seconds["singles"] = time.perf_counter() - t
+
+    # 3. pairs of the best kept singles
+    t = time.perf_counter()
+    kept = sorted([r for r in rows if _kept(r, base_o.bic)], key=lambda r: r["bic"])
+    if pairs and len(kept) >= 2:
+        top = kept[:max_pairs]
+        for i in range(len(top)):
+            for j in range(i + 1, len(top)):
+                ea, eb = (library.get(top[i]["name"]), library.get(top[j]["name"]))
+                if ea.kind == eb.kind == "geometry":
+                    continue
+                ref = outcomes[top[i]["name"]]
+                try:
+                    gv = dict(grid_values(ea, data, model), **grid_values(eb, data, model))
+                    o = refit(data, ev, spec_b, (ea, eb), x_base, scale, grid_values=gv,
+                              refine_steps=WFE_REFINE_STEPS if wfe else REFINE_STEPS)
+                    if profile_final and not wfe:
+                        o = profile_eta_r(data, ev, spec_b, (ea, eb), o, scale, max_steps=6,
+                                          refine=False)
+                except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
+                    log.warning("diagnosis: pair %s+%s failed: %s", ea.name, eb.name, exc)
+                    continue
+                gate = held_gate(ref, o)
+                ok, why = plausibility(o)
+                row = _row(o, ref, base_o, gate, ok, why)
+                outcomes[o.name] = o
+                rows.append(row)
+    seconds["pairs"] = time.perf_counter() - t
+
+    # 4. ranking and decision
+    for r in rows:
+        ref_bic = outcomes[r["reference"]].bic if r["reference"] != "base" else base_o.bic
+        r["kept"] = _kept(r, ref_bic)
+    rows.sort(key=lambda r: (not r["kept"], r["bic"]))
+    for i, r in enumerate(rows, 1):
+        r["rank"] = i
+    chosen = chosen_row = None
+    kept = [r for r in rows if r["kept"]]
+    if kept:
+        chosen_row = kept[0]
+        chosen = outcomes[chosen_row["name"]]
+    t = time.perf_counter()
+    st_after = res_after = None
+    if chosen is not None:
+        if profile_final:
+            grid_fix = {k: (v,) for k, v in chosen.grid.items()}
+            spec_c = spec_b.replace(eta_r=chosen.eta_r)
+            start = refit(data, ev, spec_c, chosen.effects, x_base, scale,
+                          grid_values=grid_fix, refine=False, x_start=chosen.x)
+            start.grid_profiles = chosen.grid_profiles
+            chosen = profile_eta_r(data, ev, spec_b, chosen.effects, start, scale,
+                                   max_steps=steps)
+        res_after = resid.make_residual(data, chosen.problem.predict(chosen.x))
+        st_after = resid.structure_test(res_after, n_parameters=chosen.k, repeats=repeats)
+        chosen_row = dict(chosen_row, final_parameters=chosen.parameters(),
+                          final_held_out=held_gate(base_o, chosen, pred_ref=pred_base))
+    seconds["final"] = time.perf_counter() - t
+    verdict, statement = decide(st_before, st_after, chosen, chosen_row, rows)
+    seconds["total"] = time.perf_counter() - t0
+    log.info("diagnosis: %s (%.1f s)", statement, seconds["total"])
+    return Diagnosis(data=data, model=model, base=base_o, base_fit=fr,
+                     structure_before=st_before, residual_before=res_before,
+                     candidates=rows, chosen=chosen, chosen_row=chosen_row, verdict=verdict,
+                     statement=statement, structure_after=st_after, residual_after=res_after,
+                     seconds=seconds, skipped=skipped)
+
+
+def _explains(st: dict) -> bool:
+    return st["verdict"] == "noise" or st["structured_rms_db"] < resid.NEGLIGIBLE_DB
+
+
+def decide(st_before, st_after, chosen, chosen_row, rows) -> tuple[str, str]:
+    """(verdict, plain statement). Verdicts: 'noise' (the base explains the data),
+    'explained', 'partly explained', 'unexplained'."""
+    if _explains(st_before) and chosen is None:
+        return "noise", ("the base model explains the data: its residual is consistent with "
+                         f"noise (p = {st_before['p']:.3g}, structured part "
+                         f"{st_before['structured_rms_db']:.2f} dB); no effect is claimed")
+    if chosen is None:
+        best = rows[0]["name"] if rows else "none"
+        return "unexplained", ("no candidate explains the residual: no effect of the library "
+                               "passes the plausibility and held-out gates (best by BIC: "
+                               f"{best}); the unexplained residual is shown")
+    red = chosen_row["final_held_out"].get("reduction") or 0.0
+    if _explains(st_after):
+        return "explained", (f"{chosen.name} explains the residual: held-out error down "
+                             f"{100 * red:.0f} %, remaining residual consistent with noise "
+                             f"(structured part {st_after['structured_rms_db']:.2f} dB)")
+    return "partly explained", (f"{chosen.name} improves the fit (held-out error down "
+                                f"{100 * red:.0f} %) but structure remains (structured part "
+                                f"{st_after['structured_rms_db']:.2f} dB): no candidate fully "
+                                "explains the residual")

@@ -1,0 +1,551 @@
+"""Refit the track with candidate effects: bounded least squares in dB over the base
+support parameters and the effects' parameters, on the fitted part of every record.
+
+The vector holds the base parameters (kp, eta_p, kb, eta_b: log10 of SI, bounds of
+railfem.identify.fit.FIT_BOUNDS) and each effect's continuous parameters (named
+``effect.parameter``). The rail loss factor changes the kernel: it is held at the base
+estimate while candidates are screened and profiled over kernels 0.15 decades apart (with
+a parabolic step) in the final refits. Grid parameters (a pad length, a geometry shift, a
+support index, which sensor) are profiled: every value is scored by one evaluation at the
+start, the best ones are refitted, a numeric grid is refined at the parabola through the
+best value and its neighbours (one new kernel), and its 95 % interval is read off the
+profile (cost within chi^2_1(95 %) s^2 of the minimum).
+
+Residuals are divided by a fixed scale per quantity (the white-noise level of the base
+fit's residual from the median absolute deviation of its first differences, at least
+0.1 dB), so every model is scored on the same footing:
+cost = sum (r / s_q)^2, AICc = cost + 2k + 2k(k+1)/(N-k-1), BIC = cost + k ln N.
+"""
+from __future__ import annotations
+
+import itertools
+import logging
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from railfem.identify import data as fdata
+from railfem.identify import uncertainty
+from railfem.identify.fit import FIT_BOUNDS
+from railfem.params import Parameter
+
+log = logging.getLogger(__name__)
+
+BASE = ("kp", "eta_p", "kb", "eta_b")
+CHI2_95 = 3.841
+REFINE_STEPS = 4  # parabolic steps of a numeric grid parameter (each a new kernel)
+ETA_R_LATTICE = 0.05  # decades between the rail-loss kernels of a profile
+MIN_SCALE = 0.1  # dB
+FAR = 60.0  # dB: the residual of a model entry that is not finite
+
+
+class Box:
+    """The parameter box of a refit (what railfem.identify.uncertainty.analyse reads)."""
+
+    def __init__(self, parameters):
+        self.parameters = tuple(parameters)
+
+    @property
+    def names(self):
+        return tuple(p.name for p in self.parameters)
+
+    @property
+    def lower(self):
+        return np.array([p.encode(p.lower) for p in self.parameters])
+
+    @property
+    def upper(self):
+        return np.array([p.encode(p.upper) for p in self.parameters])
+
+
+def base_parameters(bounds=None) -> list[Parameter]:
+    b = dict(FIT_BOUNDS, **(bounds or {}))
+    return [Parameter(name=n, unit="-" if n.startswith("eta") else "N/m", log=True,
+                      lower=b[n][0], upper=b[n][1]) for n in BASE]
+
+
+@dataclass
+class Problem:
+    """Residuals of base spec + effects (grid values fixed) on the data's fitted parts."""
+
+    data: object
+    evaluator: object
+    spec: object  # the base TrackSpec (its rail loss factor is used as is)
+    effects: tuple = ()
+    grid: dict = field(default_factory=dict)  # {(effect, name): value}
+    scale: dict = field(default_factory=dict)
+    bounds: dict | None = None
+
+    def __post_init__(self):
+        ps = base_parameters(self.bounds)
+        for e in self.effects:
+            for p in e.continuous:
+                q = p.parameter()
+                ps.append(Parameter(name=f"{e.name}.{p.name}", unit=q.unit, log=q.log,
+                                    lower=q.lower, upper=q.upper))
+        self.box = Box(ps)
+
+    def thetas(self, x) -> dict:
+        out = {e.name: {} for e in self.effects}
+        for p, xi in zip(self.box.parameters[len(BASE):], x[len(BASE):]):
+            e, n = p.name.split(".", 1)
+            out[e][n] = p.decode(xi)
+        for (e, n), v in self.grid.items():
+            out[e][n] = v
+        return out
+
+    def base_spec(self, x):
+        vals = {p.name: p.decode(xi) for p, xi in zip(self.box.parameters, x[:len(BASE)])}
+        return self.spec.replace(**vals)
+
+    def predict(self, x) -> dict:
+        """{record name: receptance (nf, n_out, n_pos)} as the data would show it."""
+        th = self.thetas(x)
+        base = self.base_spec(x)
+        out = {}
+        for r in self.data.records:
+            spec, shift = base, [0.0, 0.0]
+            for e in self.effects:
+                if e.kind in ("spec", "campaign"):
+                    spec = e.apply(spec, th[e.name], r)
+                elif e.kind == "geometry":
+                    ds, dh = e.geometry(th[e.name], r)
+                    shift[0] += ds
+                    shift[1] += dh
+            a = self.evaluator.receptance(spec, r, tuple(shift))
+            for e in self.effects:
+                if e.kind == "measurement":
+                    a = e.apply_measurement(a, th[e.name], r)
+            out[r.name] = a
+        return out
+
+    def groups(self, x, part="fit", prediction=None) -> list:
+        """[(record, quantity, residual array)] unscaled, model - measurement (dB)."""
+        pred = self.predict(x) if prediction is None else prediction
+        out = []
+        for r in self.data.records:
+            t = r.fit if part == "fit" else r.held
+            if t is None:
+                continue
+            for q, v in residuals(t, pred[r.name]).items():
+                out.append((r.name, q, v))
+        return out
+
+    def residual(self, x, part="fit", prediction=None) -> np.ndarray:
+        return np.concatenate([v / self.scale.get(q, 1.0)
+                               for _, q, v in self.groups(x, part, prediction)])
+
+    def cost(self, x) -> float:
+        r = self.residual(x)
+        return float(r @ r)
+
+
+def residuals(target, receptance) -> dict:
+    """Model - measurement (dB) per quantity, flattened over the entries the target uses
+    (weight > 0, data present: masked transfers are NaN in the data); a model entry that
+    is not finite (a band without a model decay rate) counts as FAR dB."""
+    out = {}
+    for q, v in fdata.residual_table(target, receptance).items():
+        v = np.asarray(v, dtype=float)
+        if q == "tdr":
+            used = np.isfinite(target.tdr) & (target.band_weight[:, None] > 0)
+        elif q == "transfer":
+            used = (target.frf_weight[:, None, None] > 0) & np.isfinite(target.transfer)
+        else:
+            used = (target.frf_weight[:, None] > 0) & np.isfinite(target.point)
+        out[q] = np.where(np.isfinite(v), v, FAR)[used]
+    return out
+
+
+def noise_scale(problem: Problem, x) -> dict:
+    """Per quantity, the white-noise level of the residual: 1.4826 MAD of its first
+    differences over frequency or band / sqrt 2, at least MIN_SCALE dB."""
+    diffs: dict = {}
+    pred = problem.predict(x)
+    for r in problem.data.records:
+        table = fdata.residual_table(r.fit, pred[r.name])
+        for q, v in table.items():
+            v = np.asarray(v, dtype=float).reshape(v.shape[0], -1)
+            d = np.diff(v, axis=0)
+            diffs.setdefault(q, []).append(d[np.isfinite(d)])
+    out = {}
+    for q, ds in diffs.items():
+        d = np.concatenate(ds)
+        mad = 1.4826 * float(np.median(np.abs(d - np.median(d)))) if d.size else 0.0
+        out[q] = max(mad / math.sqrt(2), MIN_SCALE)  # robust to sharp local misfits
+    return out
+
+
+@dataclass
+class Outcome:
+    """One refitted model: effects, grid values, vector, cost, scores, uncertainty."""
+
+    effects: tuple
+    grid: dict
+    x: np.ndarray
+    eta_r: float
+    cost: float
+    n: int
+    k: int
+    problem: Problem
+    analysis: dict
+    grid_profiles: dict
+    eta_r_profile: dict | None = None
+
+    @property
+    def name(self) -> str:
+        return "+".join(e.name for e in self.effects) or "base"
+
+    @property
+    def aicc(self) -> float:
+        k, n = self.k, self.n
+        return self.cost + 2 * k + (2 * k * (k + 1) / (n - k - 1) if n - k - 1 > 0 else np.inf)
+
+    @property
+    def bic(self) -> float:
+        return self.cost + self.k * math.log(self.n)
+
+    def parameters(self) -> list[dict]:
+        """Estimates with 95 % intervals: base, effects, grid (profiled) values."""
+        out = [dict(p, group="base" if "." not in p["name"] else "effect")
+               for p in self.analysis["parameters"]]
+        for (e, n), prof in self.grid_profiles.items():
+            out.append({"name": f"{e}.{n}", "group": "effect", "value": prof["value"],
+                        "ci95": prof.get("ci95"), "identifiable": prof.get("identifiable"),
+                        "reason": prof.get("reason", "profiled over a grid"),
+                        "unit": prof.get("unit", "")})
+        if self.eta_r_profile is not None:
+            out.append({"name": "eta_r", "group": "base", **self.eta_r_profile})
+        return out
+
+    def theta(self) -> dict:
+        return self.problem.thetas(self.x)
+
+    def spec(self):
+        return self.problem.base_spec(self.x)
+
+
+def _solve(problem: Problem, x0, max_nfev=200):
+    lo, hi = problem.box.lower, problem.box.upper
+    x0 = np.clip(np.asarray(x0, dtype=float), lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
+    res = least_squares(problem.residual, x0, bounds=(lo, hi), method="trf",
+                        xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=max_nfev)
+    return res.x, float(2 * res.cost), res.jac
+
+
+def _starts(problem: Problem, x_base, n_keep: int):
+    """Start vectors: the base estimate with every combination of 3 values per effect
+    parameter (20 %, its declared start, 80 % of its range in vector units), the best
+    n_keep by cost."""
+    eff = problem.box.parameters[len(BASE):]
+    if not eff:
+        return [np.asarray(x_base, dtype=float)]
+    lo, hi = problem.box.lower[len(BASE):], problem.box.upper[len(BASE):]
+    declared = []
+    for e in problem.effects:
+        declared += [p.parameter().encode(p.start) for p in e.continuous]
+    choices = [(lo[i] + 0.2 * (hi[i] - lo[i]), declared[i], lo[i] + 0.8 * (hi[i] - lo[i]))
+               for i in range(len(eff))]
+    cands = []
+    for combo in itertools.product(*choices):
+        x = np.concatenate([x_base, combo])
+        try:
+            c = problem.cost(x)
+        except (ValueError, np.linalg.LinAlgError):
+            continue
+        if np.isfinite(c):
+            cands.append((c, x))
+    cands.sort(key=lambda t: t[0])
+    return [x for _, x in cands[:n_keep]]
+
+
+def _solve_effect_only(problem: Problem, x0, max_nfev=60):
+    """Least squares over the effect parameters only (the base held at x0)."""
+    n = len(BASE)
+    if len(x0) == n:
+        r = problem.residual(x0)
+        return np.asarray(x0, dtype=float), float(r @ r), None
+    lo, hi = problem.box.lower[n:], problem.box.upper[n:]
+    z0 = np.clip(np.asarray(x0[n:], dtype=float), lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
+    res = least_squares(lambda z: problem.residual(np.concatenate([x0[:n], z])), z0,
+                        bounds=(lo, hi), method="trf", max_nfev=max_nfev)
+    return np.concatenate([x0[:n], res.x]), float(2 * res.cost), None
+
+
+def fit_fixed(problem: Problem, x_base, n_keep: int = 2):
+    """Best least-squares solution from the best start vectors: (x, cost, J)."""
+    best = None
+    for x0 in _starts(problem, x_base, n_keep):
+        x, c, J = _solve(problem, x0)
+        if best is None or c < best[1]:
+            best = (x, c, J)
+    return best
+
+
+def _grid_combos(effects):
+    keys, values = [], []
+    for e in effects:
+        for n, vals in e.grid.items():
+            keys.append((e.name, n))
+            values.append(tuple(vals))
+    return keys, values
+
+
+def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
+          screen_keep: int = 2, refine: bool = True, bounds=None, x_start=None,
+          refine_steps: int = REFINE_STEPS) -> Outcome:
+    """Fit base + ``effects`` (see the module docstring) starting from the base vector
+    x_base (BASE parameters, vector units) with the rail loss factor of ``spec``.
+    grid_values: {(effect, name): values} overriding the effects' grids (e.g. only the
+    sensors a record has)."""
+    effects = tuple(effects)
+    keys, values = _grid_combos(effects)
+    values = [tuple((grid_values or {}).get(k, v)) for k, v in zip(keys, values)]
+
+    def problem_for(combo):
+        return Problem(data=data, evaluator=evaluator, spec=spec, effects=effects,
+                       grid=dict(zip(keys, combo)), scale=scale, bounds=bounds)
+
+    results: dict = {}
+    if keys and x_start is not None and all(len(v) == 1 for v in values):
+        combo = tuple(v[0] for v in values)
+        results[combo] = _solve(problem_for(combo), x_start)
+    elif keys:
+        screened = []
+        for combo in itertools.product(*values):
+            pb = problem_for(combo)
+            try:
+                starts = _starts(pb, x_base, 1)
+                c = pb.cost(starts[0])
+            except (ValueError, np.linalg.LinAlgError) as exc:
+                log.info("diagnosis: %s at %s skipped: %s", effects[0].name, combo, exc)
+                continue
+            screened.append((c, combo))
+        screened.sort(key=lambda t: t[0])
+        for _, combo in screened[:screen_keep]:
+            results[combo] = fit_fixed(problem_for(combo), x_base)
+    elif x_start is not None:  # a warm start (e.g. the neighbouring rail loss factor)
+        results[()] = _solve(problem_for(()), x_start)
+    else:
+        results[()] = fit_fixed(problem_for(()), x_base)
+    best = min(results, key=lambda c: results[c][1])
+    profiles = {}
+    if keys:
+        best, profiles = _profile_grid(keys, values, best, results, problem_for, x_base,
+                                       refine_steps if refine else 0)
+    pb = problem_for(best)
+    if results[best][2] is None:  # won by a partial refit (a support index): refit all
+        results[best] = _solve(pb, results[best][0])
+        if keys:
+            for k_, prof in profiles.items():
+                j = keys.index(k_)
+                if best[j] in prof["values"]:
+                    prof["cost"][prof["values"].index(best[j])] = results[best][1]
+    x, c, J = results[best]
+    r = pb.residual(x)
+    analysis = uncertainty.analyse(pb.box, x, J, r)
+    s2 = analysis["residual_variance"]
+    for k, prof in profiles.items():
+        prof.update(interval_from_profile(prof, s2))
+    k = len(x) + len(keys) + 1  # + the rail loss factor (fitted with the base)
+    return Outcome(effects=effects, grid=dict(zip(keys, best)), x=x,
+                   eta_r=float(spec.rail.eta), cost=c, n=len(r), k=k, problem=pb,
+                   analysis=analysis, grid_profiles=profiles)
+
+
+def _profile_grid(keys, values, best, results, problem_for, x_base, refine_steps):
+    """For each numeric grid parameter: refit the neighbours of the best value, then one
+    parabolic step (a new value); returns the best combination and the profiles."""
+    profiles = {}
+    best = tuple(best)
+    for j, (key, vals) in enumerate(zip(keys, values)):
+        numeric = all(isinstance(v, (int, float, np.integer, np.floating)) for v in vals)
+        if not numeric:
+            continue
+        vals = sorted(vals)
+        i = vals.index(best[j])
+        is_int = all(float(v).is_integer() for v in vals) and key[1] == "index"
+        x_best = results[best][0]
+        for nb in range(len(vals)) if is_int else (i - 1, i + 1):
+            if 0 <= nb < len(vals):
+                combo = best[:j] + (vals[nb],) + best[j + 1:]
+                if combo not in results:
+                    # a support index: the other indices with the base held (their costs
+                    # are upper bounds, so the index set is if anything too narrow)
+                    results[combo] = (_solve_effect_only(problem_for(combo), x_best)
+                                      if is_int else fit_fixed(problem_for(combo),
+                                                               x_best[:len(BASE)]))
+
+        def line():
+            return sorted((c[j], results[c][1]) for c in results
+                          if c[:j] == best[:j] and c[j + 1:] == best[j + 1:])
+
+        for _ in range(0 if is_int else refine_steps):
+            pts = line()
+            k = int(np.argmin([c for _, c in pts]))
+            if not 0 < k < len(pts) - 1:
+                break
+            xs = np.array([v for v, _ in pts[k - 1:k + 2]], dtype=float)
+            cs = np.array([c for _, c in pts[k - 1:k + 2]])
+            A = np.vstack([xs ** 2, xs, np.ones(3)]).T
+            a, b, _ = np.linalg.solve(A, cs)
+            if a <= 0:
+                break
+            v = float(np.clip(-b / (2 * a), xs[0], xs[2]))
+            if min(abs(v - xs)) < 1e-4 * (vals[-1] - vals[0]):
+                break
+            combo = best[:j] + (v,) + best[j + 1:]
+            near = results[best[:j] + (pts[k][0],) + best[j + 1:]][0]
+            results[combo] = _solve(problem_for(combo), near)
+        pts = sorted((c[j], results[c][1]) for c in results
+                     if c[:j] == best[:j] and c[j + 1:] == best[j + 1:])
+        new_best = min(pts, key=lambda t: t[1])[0]
+        best = best[:j] + (new_best,) + best[j + 1:]
+        profiles[key] = {"values": [float(v) for v, _ in pts],
+                         "cost": [float(c) for _, c in pts], "value": float(new_best),
+                         "integer": is_int}
+    return best, profiles
+
+
+def interval_from_profile(prof: dict, s2: float) -> dict:
+    """95 % interval of a profiled grid parameter: where the profile stays within
+    CHI2_95 s^2 of its minimum (linear interpolation; open at the grid's ends)."""
+    v, c = np.array(prof["values"]), np.array(prof["cost"])
+    d = (c - c.min()) / max(s2, 1e-300)
+    k = int(np.argmin(d))
+    if prof.get("integer"):
+        inside = v[d < CHI2_95]
+        return {"ci95": [float(inside.min()), float(inside.max())],
+                "identifiable": "yes" if len(inside) == 1 else "weak",
+                "reason": f"indices within the 95 % profile threshold: "
+                          f"{[int(x) for x in inside]}"}
+    lo = hi = None
+    for a in range(k, 0, -1):
+        if d[a - 1] >= CHI2_95:
+            lo = v[a - 1] + (CHI2_95 - d[a - 1]) * (v[a] - v[a - 1]) / (d[a] - d[a - 1])
+            break
+    for a in range(k, len(v) - 1):
+        if d[a + 1] >= CHI2_95:
+            hi = v[a] + (CHI2_95 - d[a]) * (v[a + 1] - v[a]) / (d[a + 1] - d[a])
+            break
+    if 0 < k < len(v) - 1:  # the parabola through the best three: a finer interval
+        A = np.vstack([v[k - 1:k + 2] ** 2, v[k - 1:k + 2], np.ones(3)]).T
+        a, b, _ = np.linalg.solve(A, c[k - 1:k + 2])
+        if a > 0:
+            half = math.sqrt(CHI2_95 * s2 / a)
+            vertex = -b / (2 * a)
+            lo, hi = vertex - half, vertex + half
+    open_ = [s for s, x in (("low", lo), ("high", hi)) if x is None]
+    return {"ci95": [float(v[0] if lo is None else lo), float(v[-1] if hi is None else hi)],
+            "identifiable": "yes" if not open_ else ("weak" if len(open_) == 1 else "no"),
+            "reason": "profile over the grid" + (f", open on the {' and '.join(open_)} side"
+                                                 if open_ else "")}
+
+
+def profile_eta_r(data, evaluator, spec, effects, outcome: Outcome, scale, *,
+                  max_steps: int | None = None, step: float = ETA_R_LATTICE,
+                  refine: bool = True, tol: float = 0.001, bounds=None) -> Outcome:
+    """Refit ``outcome``'s model at other rail loss factors (each a new kernel, shared by
+    every candidate: the values lie on a lattice ``step`` decades apart around the base
+    value), warm-started from the nearest refitted one, walking downhill until the minimum
+    is bracketed; with ``refine``, parabolic steps (new kernels) until they move less than
+    ``tol`` decades. Returns the best Outcome with the eta_r profile and its 95 % interval
+    (the Jacobian gets a finite-difference rail-loss column)."""
+    grid = {k: (v,) for k, v in outcome.grid.items()}
+    done = {round(math.log10(outcome.eta_r), 6): outcome}
+    max_steps = 8 if max_steps is None else max_steps
+
+    def at(le):
+        le = round(float(le), 6)
+        if le in done:
+            return done[le]
+        near = done[min(done, key=lambda v: abs(v - le))]
+        s_ = spec.replace(eta_r=10 ** le)
+        o = refit(data, evaluator, s_, effects, near.x[:len(BASE)], scale, grid_values=grid,
+                  refine=False, bounds=bounds, x_start=near.x)
+        fresh = refit(data, evaluator, s_, effects, near.x[:len(BASE)], scale,
+                      grid_values=grid, refine=False, bounds=bounds)  # multi-start as well
+        o = fresh if fresh.cost < o.cost else o
+        o.grid_profiles = outcome.grid_profiles
+        done[le] = o
+        return o
+
+    e0 = math.log10(outcome.eta_r)
+    if max_steps > 0:
+        at(e0 - step)
+        at(e0 + step)
+    for _ in range(max_steps):  # walk the lattice until the minimum is bracketed
+        v = sorted(done)
+        k = int(np.argmin([done[x].cost for x in v]))
+        if k == 0:
+            at(v[0] - step)
+        elif k == len(v) - 1:
+            at(v[-1] + step)
+        else:
+            break
+    for _ in range(max_steps if refine else 0):
+        v = np.array(sorted(done))
+        c = np.array([done[x].cost for x in v])
+        k = int(np.argmin(c))
+        if not 0 < k < len(v) - 1:
+            break
+        A = np.vstack([v[k - 1:k + 2] ** 2, v[k - 1:k + 2], np.ones(3)]).T
+        a, b, _ = np.linalg.solve(A, c[k - 1:k + 2])
+        if a <= 0:
+            break
+        new = float(np.clip(-b / (2 * a), v[k - 1], v[k + 1]))
+        if min(abs(new - v)) < tol:
+            break
+        at(new)
+    v = np.array(sorted(done))
+    c = np.array([done[x].cost for x in v])
+    best = done[v[int(np.argmin(c))]]
+    if len(v) < 2:
+        return best
+    s2 = best.analysis["residual_variance"]
+    iv = interval_from_profile({"values": list(v), "cost": list(c)}, s2)
+    _joint_uncertainty(best, done)
+    joint = best.analysis.get("eta_r")
+    best.eta_r_profile = {"values": [float(10 ** x) for x in v], "cost": c.tolist(),
+                          "value": float(best.eta_r), "unit": "-",
+                          "ci95": joint["ci95"] if joint else
+                          [float(10 ** x) for x in iv["ci95"]],
+                          "profile_ci95": [float(10 ** x) for x in iv["ci95"]],
+                          "identifiable": joint["identifiable"] if joint else
+                          iv["identifiable"],
+                          "reason": "profiled over rail-loss kernels; interval from the "
+                                    "Jacobian with a finite-difference rail-loss column"}
+    return best
+
+
+def _joint_uncertainty(best: Outcome, done: dict) -> None:
+    """Intervals of the other parameters with the rail loss factor free: the Jacobian gets
+    a column dr/d(log10 eta_r) by a difference to the nearest other kernel (the other
+    parameters held), and the analysis is redone on the extended box."""
+    le = math.log10(best.eta_r)
+    others = [v for v in done if abs(v - le) > 1e-9]
+    if not others:
+        return
+    nb = min(others, key=lambda v: abs(v - le))
+    pb, pn = best.problem, done[nb].problem
+    r0 = pb.residual(best.x)
+    col = (pn.residual(best.x) - r0) / (nb - le)
+    J = _jacobian(pb, best.x)
+    J = np.column_stack([J, col])
+    box = Box(list(pb.box.parameters) + [Parameter(name="eta_r", unit="-", log=True,
+                                                   lower=1e-4, upper=0.5)])
+    analysis = uncertainty.analyse(box, np.append(best.x, le), J, r0)
+    best.analysis = dict(analysis, parameters=analysis["parameters"][:-1],
+                         eta_r=analysis["parameters"][-1])
+
+
+def _jacobian(problem: Problem, x, h: float = 1e-6) -> np.ndarray:
+    lo, hi = problem.box.lower, problem.box.upper
+    cols = []
+    for i in range(len(x)):
+        a, b = x.copy(), x.copy()
+        a[i], b[i] = max(x[i] - h, lo[i]), min(x[i] + h, hi[i])
+        cols.append((problem.residual(b) - problem.residual(a)) / (b[i] - a[i]))
+    return np.column_stack(cols)

@@ -1,0 +1,260 @@
+"""The model-measurement residual as an object, and a test of noise against structure.
+
+``Residual`` holds, per record, part ('fit' or 'held') and quantity, the residual
+**measured minus model** in dB on its own axes: frequency (Hz) or band (Hz), sensor
+('head'/'foot') and hammer position (m). ``band_table`` gives its RMS per one-third-octave
+band; railfem.plotting draws it over frequency, over hammer distance and head against foot.
+
+``structure_test`` decides whether the residual is noise or structure:
+
+* **correlation** (always): white noise has no correlation between neighbouring
+  frequencies nor between neighbouring hammer positions; structure (a missing mechanism)
+  is smooth in both. The Ljung-Box statistic Q = n (n + 2) sum_k rho_k^2 / (n - k),
+  k = 1..h, with rho_k the autocorrelation about zero (a level offset is structure), is
+  computed on every sequence over frequency (each quantity, sensor, position) and over
+  position (each transfer frequency); under white noise each Q is chi^2(h) and the sums
+  over sequences are chi^2(sum h). The two p-values are combined by Bonferroni, so the
+  false-alarm rate on white noise is at most ``alpha`` (default 1 %).
+* **the measurement's own scatter** (where there is any: records that repeat each other,
+  e.g. both rails of one section on one date): per band the repeat scatter s_b from the
+  differences between repeats; sum r^2 / s_b^2 against chi^2(N - p).
+
+It also estimates the white part of the residual from first differences over frequency
+(sigma_w = 1.4826 MAD(r_i - r_i-1) / sqrt 2: smooth structure cancels in differences of
+neighbours and sharp local misfits do not move a median) and
+the structured RMS sqrt(max(0, mean r^2 - sigma_w^2)) in dB; where repeats exist the
+structured RMS is sqrt(mean max(0, r^2 - s_b^2)) instead: what exceeds the repeat
+scatter band by band (the repeats measure the noise directly; band-to-band differences of
+a decay rate are not noise).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from railfem.identify import data as fdata
+
+ALPHA = 0.01
+NEGLIGIBLE_DB = 0.5  # structure below this RMS (dB) is not worth a mechanism
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class Block:
+    """One residual array: record, part, quantity, axis ('frequency' or 'band'), x (Hz),
+    outputs, positions (m, per last axis), values (n_x, n_out, n_pos) dB, NaN = unused."""
+
+    record: str
+    part: str
+    quantity: str
+    axis: str
+    x: np.ndarray
+    outputs: tuple
+    positions: np.ndarray
+    values: np.ndarray
+
+    def rms(self) -> float:
+        v = self.values[np.isfinite(self.values)]
+        return float(np.sqrt(np.mean(v ** 2))) if v.size else float("nan")
+
+
+def blocks(record, part: str, receptance: np.ndarray) -> list[Block]:
+    """The residual blocks of one record's part ('fit' or 'held') for a model receptance."""
+    target = record.fit if part == "fit" else record.held
+    if target is None:
+        return []
+    table = fdata.residual_table(target, receptance)
+    out = []
+    for q, v in table.items():
+        meas_minus_model = -np.asarray(v, dtype=float)
+        if q in ("point", "phase"):
+            vals, pos, axis, x = meas_minus_model[:, :, None], target.positions[:1], \
+                "frequency", target.frequency
+        elif q == "transfer":
+            vals, pos, axis, x = meas_minus_model, target.positions[target.transfer_index], \
+                "frequency", target.frequency
+        else:
+            vals, pos, axis, x = meas_minus_model[:, :, None], np.array([np.nan]), "band", \
+                target.bands.nominal
+        out.append(Block(record=record.name, part=part, quantity=q, axis=axis,
+                         x=np.asarray(x, dtype=float), outputs=tuple(target.outputs),
+                         positions=np.asarray(pos, dtype=float), values=vals))
+    return out
+
+
+@dataclass(frozen=True, kw_only=True, eq=False)
+class Residual:
+    """All residual blocks of a model on some data (see the module docstring)."""
+
+    blocks: tuple
+
+    def select(self, *, part=None, quantity=None, record=None) -> list[Block]:
+        return [b for b in self.blocks if (part is None or b.part == part)
+                and (quantity is None or b.quantity == quantity)
+                and (record is None or b.record == record)]
+
+    def rms(self, *, part="fit") -> dict:
+        """RMS (dB) per quantity over the records."""
+        out = {}
+        for q in sorted({b.quantity for b in self.blocks if b.part == part}):
+            v = np.concatenate([b.values[np.isfinite(b.values)]
+                                for b in self.select(part=part, quantity=q)])
+            out[q] = float(np.sqrt(np.mean(v ** 2))) if v.size else None
+        return out
+
+    def band_table(self, bands) -> list[dict]:
+        """Rows {record, part, quantity, sensor, band_hz, rms_db, mean_db} per band."""
+        rows = []
+        for b in self.blocks:
+            for o, sensor in enumerate(b.outputs):
+                for c, lo, hi in zip(bands.nominal, bands.lower, bands.upper):
+                    if b.axis == "band":
+                        m = np.isclose(b.x, c, rtol=0.03)
+                    else:
+                        m = (b.x >= lo) & (b.x < hi)
+                    v = b.values[m, o, :]
+                    v = v[np.isfinite(v)]
+                    if v.size:
+                        rows.append({"record": b.record, "part": b.part, "quantity": b.quantity,
+                                     "sensor": sensor, "band_hz": float(c),
+                                     "rms_db": float(np.sqrt(np.mean(v ** 2))),
+                                     "mean_db": float(np.mean(v)), "n": int(v.size)})
+        return rows
+
+
+def make_residual(data, receptances: dict, parts=("fit", "held")) -> Residual:
+    """Residual of the model receptances {record name: (nf, n_out, n_pos)} on ``data``."""
+    out = []
+    for r in data.records:
+        for part in parts:
+            out += blocks(r, part, receptances[r.name])
+    return Residual(blocks=tuple(out))
+
+
+# ---------------------------------------------------------------------- noise or structure
+
+
+def ljung_box(seq: np.ndarray, h: int) -> float:
+    """Q of one sequence (autocorrelation about zero: an offset counts as structure)."""
+    r = np.asarray(seq, dtype=float)
+    n = len(r)
+    den = float(r @ r)
+    if den == 0:
+        return 0.0
+    q = 0.0
+    for k in range(1, h + 1):
+        rho = float(r[k:] @ r[:-k]) / den
+        q += rho ** 2 / (n - k)
+    return n * (n + 2) * q
+
+
+def _runs(values: np.ndarray, axis: int, min_len: int):
+    """Contiguous finite sequences of ``values`` along ``axis`` (others flattened)."""
+    v = np.moveaxis(values, axis, 0).reshape(values.shape[axis], -1)
+    for j in range(v.shape[1]):
+        col = v[:, j]
+        ok = np.isfinite(col)
+        if not ok.any():
+            continue
+        edges = np.flatnonzero(np.diff(np.concatenate(([0], ok.astype(int), [0]))))
+        for a, b in zip(edges[::2], edges[1::2]):
+            if b - a >= min_len:
+                yield col[a:b]
+
+
+def structure_test(res: Residual, *, part="fit", alpha: float = ALPHA,
+                   n_parameters: int = 0, repeats=None) -> dict:
+    """Noise or structure (see the module docstring). repeats: {band_hz: scatter_db} from
+    repeat_scatter, or None. Returns a JSON-ready dict with 'verdict' ('noise' or
+    'structure'), p-values, sigma_w and the structured RMS (dB)."""
+    q_f = df_f = q_x = df_x = 0.0
+    diffs, squares, n_tot = [], [], 0
+    for b in res.select(part=part):
+        if b.quantity == "phase":
+            continue
+        for seq in _runs(b.values, 0, 8):
+            h = max(1, min(5, len(seq) // 5))
+            q_f += ljung_box(seq, h)
+            df_f += h
+            diffs.append(np.diff(seq))
+            squares.append(seq ** 2)
+            n_tot += len(seq)
+        if b.quantity == "transfer" and b.values.shape[2] >= 8:
+            order = np.argsort(b.positions)
+            for seq in _runs(b.values[:, :, order], 2, 8):
+                h = max(1, min(3, len(seq) // 5))
+                q_x += ljung_box(seq, h)
+                df_x += h
+    p_f = float(stats.chi2.sf(q_f, df_f)) if df_f else 1.0
+    p_x = float(stats.chi2.sf(q_x, df_x)) if df_x else 1.0
+    tests = [p for p, d in ((p_f, df_f), (p_x, df_x)) if d]
+    p_corr = min(1.0, min(tests) * len(tests)) if tests else 1.0
+    d = np.concatenate(diffs) if diffs else np.zeros(0)
+    s = np.concatenate(squares) if squares else np.zeros(0)
+    # robust: 1.4826 MAD of the differences (sharp local misfits do not count as noise)
+    sigma_w = (float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2)) if d.size
+               else float("nan"))
+    total = float(np.sqrt(np.mean(s))) if s.size else float("nan")
+    structured = float(np.sqrt(max(0.0, np.mean(s) - sigma_w ** 2))) if s.size else 0.0
+    out = {"part": part, "alpha": alpha, "n": int(n_tot),
+           "ljung_box_frequency": {"Q": q_f, "dof": df_f, "p": p_f},
+           "ljung_box_position": {"Q": q_x, "dof": df_x, "p": p_x},
+           "p_correlation": p_corr, "rms_db": total, "sigma_white_db": sigma_w,
+           "structured_rms_db": structured}
+    p_all = p_corr
+    if repeats:
+        sc = scatter_test(res, repeats, part=part, n_parameters=n_parameters)
+        out["scatter"] = sc
+        p_all = min(1.0, 2 * min(p_corr, sc["p"]))
+        if sc.get("excess") is not None:  # the repeats measure the noise directly
+            out["structured_rms_db"] = float(np.sqrt(sc["excess"]))
+            out["structured_from"] = "repeat scatter"
+    out["p"] = p_all
+    out["verdict"] = "structure" if p_all < alpha else "noise"
+    return out
+
+
+def repeat_scatter(data, part="fit") -> dict:
+    """{band centre: repeat scatter in dB} from records that repeat each other (same
+    section and date, e.g. the two rails): pooled s_b^2 = sum (d - mean d)^2 / (n - groups),
+    d = 10 lg of the measured decay rate. Empty when there are no repeats."""
+    groups: dict = {}
+    for r in data.records:
+        m = r.metadata
+        if r.kind != "tdr" or not (m.section or m.date):
+            continue
+        groups.setdefault((m.section, m.date), []).append(r)
+    sums: dict = {}
+    for recs in groups.values():
+        if len(recs) < 2:
+            continue
+        t0 = recs[0].fit
+        vals = np.stack([10 * np.log10(r.fit.tdr[:, 0]) for r in recs])  # (n_rep, bands)
+        dev = vals - np.nanmean(vals, axis=0)
+        for k, c in enumerate(t0.bands.nominal):
+            ok = np.isfinite(dev[:, k])
+            if ok.sum() >= 2:
+                s2, dof = sums.get(float(c), (0.0, 0))
+                sums[float(c)] = (s2 + float(np.sum(dev[ok, k] ** 2)), dof + int(ok.sum()) - 1)
+    return {c: float(np.sqrt(s2 / dof)) for c, (s2, dof) in sums.items() if dof > 0}
+
+
+def scatter_test(res: Residual, scatter: dict, *, part="fit", n_parameters=0) -> dict:
+    """sum r^2 / s_b^2 over the decay-rate residuals against chi^2(N - p)."""
+    chi, n, r2, s2, ex = 0.0, 0, 0.0, 0.0, 0.0
+    for b in res.select(part=part, quantity="tdr"):
+        for k, c in enumerate(b.x):
+            s = scatter.get(float(c))
+            v = b.values[k].ravel()
+            v = v[np.isfinite(v)]
+            if s and v.size:
+                chi += float(np.sum((v / s) ** 2))
+                n += v.size
+                r2 += float(np.sum(v ** 2))
+                s2 += s ** 2 * v.size
+                ex += float(np.sum(np.maximum(v ** 2 - s ** 2, 0.0)))
+    dof = max(n - n_parameters, 1)
+    return {"chi2": chi, "dof": dof, "p": float(stats.chi2.sf(chi, dof)) if n else 1.0,
+            "ratio": chi / dof if n else None, "n": n, "mean_r2": r2 / n if n else None,
+            "mean_s2": s2 / n if n else None, "excess": ex / n if n else None}

@@ -1,0 +1,175 @@
+"""Blind-test data: railfem's forward model (the door, railfem.models) with an effect
+switched on, plus seeded noise. Nothing here imports railfem.diagnosis: the diagnosis is
+never told which effect (if any) made the data.
+
+Every generator returns a list of HammerMeasurement (or DecayRateMeasurement) objects; the
+truth is returned separately for the test to compare with.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+
+import railfem as rf
+from railfem import models
+from railfem.measurement import HammerMeasurement, Metadata, Sensor
+from railfem.spec import SupportDeviation
+from railfem.standards import en15461, iec61260
+from railfem.supports import FootDashpot, FractionalZener, RailAbsorber
+
+TRUTH = dict(kp=400e6, eta_p=0.2, kb=60e6, eta_b=1.0, eta_r=0.02)
+MODEL = "timoshenko-discrete"
+NOISE = 0.05
+
+
+def frequencies(n_per_octave: int = 9, low: float = 50.0, high: float = 5000.0):
+    if n_per_octave == 9:
+        return iec61260.ninth_octave_grid(low, high)
+    return iec61260.ninth_octave_grid(low, high)[::9 // n_per_octave]
+
+
+def truth_spec(model=MODEL, **changes):
+    return rf.preset("site", model=model).replace(**{**TRUTH, **changes})
+
+
+def clean(spec, f, *, outputs=("head",), sensor_shift=0.0, hammer_offset=0.0):
+    """Mobilities (nf, n_out, n_pos) of an EN 15461 test on spec: the sensor at mid-span
+    (+ sensor_shift), positions of the standard, the point 20 mm away, every other hammer
+    position moved by hammer_offset."""
+    pos = en15461.hammer_positions(spec.spacing).astype(float)
+    pos[0] = models.POINT_OFFSET
+    xs = spec.spacing / 2 + sensor_shift
+    hx = xs + pos + np.where(np.arange(len(pos)) > 0, hammer_offset, 0.0)
+    if spec.deviations:
+        spec = spec.replace(n_supports=2 * math.ceil((hx.max() + 20) / spec.spacing) + 1)
+    a = models.receptance(spec, f, hx, [xs], outputs=outputs, cache=False)[:, :, 0, :]
+    return 2j * np.pi * f[:, None, None] * a, pos
+
+
+def noisy(Y, seed, level=NOISE, floor_db=None):
+    """Multiplicative complex Gaussian scatter of RMS ``level`` per FRF point; optionally an
+    additive floor (complex Gaussian, RMS 10^(floor_db/20) |Y_point|)."""
+    rng = np.random.default_rng(seed)
+    e = (rng.standard_normal(Y.shape) + 1j * rng.standard_normal(Y.shape)) / np.sqrt(2)
+    out = Y * (1 + level * e)
+    if floor_db is not None:
+        g = (rng.standard_normal(Y.shape) + 1j * rng.standard_normal(Y.shape)) / np.sqrt(2)
+        out = out + 10 ** (floor_db / 20) * np.abs(Y[:, :, :1]) * g
+    return out
+
+
+def measurement(Y, pos, f, outputs=("head",), metadata=None, stated_sensor_x=0.3):
+    frf = rf.FRF(frequency=f, values=Y, quantity="mobility", response=tuple(outputs),
+                 force=tuple(f"x{p:.3f}" for p in pos))
+    return HammerMeasurement(frf=frf, positions=pos, sleeper_spacing=0.6,
+                             sensors=tuple(Sensor(name=o) for o in outputs),
+                             sensor_x=stated_sensor_x, metadata=metadata or Metadata())
+
+
+def mount(f, fs, eta):
+    """Transmissibility of a sensor on a compliant mount (base-excited oscillator)."""
+    r = f / fs
+    return (1 + 1j * eta * r) / (1 - r ** 2 + 1j * eta * r)
+
+
+def _support(spec, **changes):
+    return spec.replace(support=replace(spec.support, **changes))
+
+
+#: effect name -> (truth parameters, spec change or None)
+CASES = {
+    "none": {},
+    "pad_frequency": {"ratio": 3.0, "fc": 400.0},
+    "foot_damping": {"eta_1k": 0.4},
+    "rail_damper": {"mass": 4.0, "fa": 900.0, "eta_a": 0.3},
+    "pad_length": {"pad_length": 0.16},
+    "voided_sleeper": {"index": 2, "kb_factor": 0.05},
+    "sensor_resonance": {"fs": 3200.0, "eta_s": 0.15},
+    "sensor_position": {"sensor_shift": 0.1},
+    "hammer_position": {"hammer_offset": 0.05},
+    "noise_floor": {"floor_db": -40.0},
+    "temperature": {"a": 0.03},
+    "preload": {"n_p": 0.8, "n_b": 0.5},
+    "rail_stiffness": {"E": 1.75e11},  # outside the library: a softer rail
+}
+
+
+def dataset(case: str, seed: int, f=None, outputs=("head",), model=MODEL):
+    """A list of measurements with ``case`` switched on (CASES), noise seeded by ``seed``."""
+    f = frequencies() if f is None else f
+    p = CASES[case]
+    spec = truth_spec(model)
+    kw = {}
+    floor = None
+    if case == "pad_frequency":
+        spec = _support(spec, pad_laws=(FractionalZener(ratio=p["ratio"], fc=p["fc"],
+                                                        alpha=0.5),))
+    elif case == "foot_damping":
+        spec = _support(spec, pad_laws=(FootDashpot(eta_1k=p["eta_1k"]),))
+    elif case == "rail_damper":
+        spec = _support(spec, absorber=RailAbsorber(mass=p["mass"], fa=p["fa"],
+                                                    eta=p["eta_a"]))
+    elif case == "pad_length":
+        spec = spec.replace(pad_length=p["pad_length"])
+    elif case == "voided_sleeper":
+        spec = spec.replace(deviations=(SupportDeviation(index=p["index"],
+                                                         kb=p["kb_factor"]),))
+    elif case == "sensor_position":
+        kw["sensor_shift"] = p["sensor_shift"]
+    elif case == "hammer_position":
+        kw["hammer_offset"] = p["hammer_offset"]
+    elif case == "noise_floor":
+        floor = p["floor_db"]
+    elif case == "rail_stiffness":
+        spec = spec.replace(rail=replace(spec.rail, E=p["E"]))
+    if case in ("temperature", "preload"):
+        return _campaign(case, p, spec, f, seed, outputs)
+    Y, pos = clean(spec, f, outputs=outputs, **kw)
+    if case == "sensor_resonance":
+        Y = Y * mount(f, p["fs"], p["eta_s"])[:, None, None]
+    return [measurement(noisy(Y, seed, floor_db=floor), pos, f, outputs)]
+
+
+def _campaign(case, p, spec, f, seed, outputs):
+    out = []
+    if case == "temperature":
+        temps = (0.0, 15.0, 30.0)
+        for i, T in enumerate(temps):
+            s = spec.replace(kp=spec.support.kp * math.exp(-p["a"] * (T - np.mean(temps))))
+            Y, pos = clean(s, f, outputs=outputs)
+            out.append(measurement(noisy(Y, seed * 7 + i), pos, f, outputs,
+                                   Metadata(date=f"2020-0{i + 1}-01", temperature_c=T)))
+    else:
+        loads = (0.0, 40.0, 80.0)
+        ref = float(np.mean(loads))
+        for i, P in enumerate(loads):
+            fac = lambda n: ((1 + P / 20) / (1 + ref / 20)) ** n  # noqa: E731
+            s = spec.replace(kp=spec.support.kp * fac(p["n_p"]),
+                             kb=spec.support.kb * fac(p["n_b"]))
+            Y, pos = clean(s, f, outputs=outputs)
+            out.append(measurement(noisy(Y, seed * 7 + i), pos, f, outputs,
+                                   Metadata(date=f"2020-0{i + 1}-01",
+                                            notes={"static_load_kn": P})))
+    return out
+
+
+def decay_rate_campaign(seed: int, a: float = 0.03, temps=(0.0, 15.0, 30.0), level=0.03,
+                        model=MODEL):
+    """Decay rates per band (100 Hz - 5 kHz) of the truth at three temperatures with the pad
+    following kp exp(-a (T - mean T)); multiplicative scatter ``level`` per band."""
+    from railfem.measurement import DecayRateMeasurement
+
+    rng = np.random.default_rng(seed)
+    f = iec61260.ninth_octave_grid(100.0, 5000.0)
+    out = []
+    for i, T in enumerate(temps):
+        spec = truth_spec(model)
+        spec = spec.replace(kp=spec.support.kp * math.exp(-a * (T - float(np.mean(temps)))))
+        r = models.decay_rate(spec, f, cache=False)
+        d = np.asarray(r.decay_rate) * (1 + level * rng.standard_normal(len(r.decay_rate)))
+        out.append(DecayRateMeasurement(frequency=np.asarray(r.frequency), decay_rate=d,
+                                        metadata=Metadata(date=f"2020-0{i + 1}-01",
+                                                          temperature_c=T, section="S1")))
+    return out

@@ -1,0 +1,244 @@
+"""railfem.diagnosis in the default suite: the effect library's contract, the residual's
+noise-or-structure test on synthetic sequences, the noise-floor operator against Monte
+Carlo, a small blind diagnosis (generator: tests/blind/generators.py, the door with an
+effect switched on; the diagnosis is not told which), named errors and the CLI.
+
+The full blind study (every effect, 10 seeds, realistic size) is tests/test_diagnosis_blind.py
+(slow)."""
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import railfem as rf
+from railfem.diagnosis import diagnose, effects, prepare
+from railfem.diagnosis import residual as R
+from railfem.diagnosis.effects import noise_floor, sensor_resonance
+from railfem.diagnosis.evaluate import Evaluator
+from tests.blind import generators as g
+
+SMALL_F = g.frequencies(low=50.0, high=4000.0)[::2]  # 1/4.5-octave: a cheap grid
+
+
+# ------------------------------------------------------------------ the library
+
+
+def test_every_effect_module_is_registered_with_a_complete_description():
+    import pkgutil
+
+    import railfem.diagnosis.effects as pkg
+
+    modules = {m.name for m in pkgutil.iter_modules(pkg.__path__)}
+    assert len(effects.REGISTRY) == len(modules) >= 11
+    for name in effects.names():
+        e = effects.get(name)
+        assert e.meaning and e.title
+        for p in e.parameters:
+            assert p.lower < p.start < p.upper or p.name in e.grid, (name, p.name)
+            assert p.meaning
+        json.dumps(e.describe())
+
+
+@pytest.fixture(scope="module")
+def small_record():
+    meas = g.dataset("none", 0, f=SMALL_F)
+    return prepare(meas).records[0]
+
+
+@pytest.mark.parametrize("name", [n for n in effects.names()
+                                  if n not in ("temperature", "preload")])
+def test_each_effect_changes_what_the_model_predicts(name, small_record):
+    """apply / geometry / apply_measurement at the declared start values move the
+    prediction away from the base model's by more than a tenth of a dB somewhere."""
+    from railfem.diagnosis.refit import Problem
+
+    e = effects.get(name)
+    spec = g.truth_spec()
+    data = prepare(g.dataset("none", 0, f=SMALL_F))
+    pb0 = Problem(data=data, evaluator=Evaluator(), spec=spec)
+    grid = {(name, k): v[len(v) // 2] for k, v in e.grid.items()}
+    pb = Problem(data=data, evaluator=Evaluator(), spec=spec, effects=(e,), grid=grid)
+    x0 = np.log10([400e6, 0.2, 60e6, 1.0])
+    x = np.concatenate([x0, [p.parameter().encode(p.start) for p in e.continuous]])
+    a0 = pb0.predict(x0)[data.records[0].name]
+    a = pb.predict(x)[data.records[0].name]
+    near = np.abs(a0) > 1e-3 * np.abs(a0[:, :, :1])
+    change = np.abs(20 * np.log10(np.abs(a[near]) / np.abs(a0[near])))
+    assert change.max() > 0.1, name
+
+
+def test_campaign_effects_follow_the_covariate():
+    from railfem.diagnosis.refit import Problem
+
+    data = prepare(g.dataset("temperature", 0, f=SMALL_F))
+    assert [r.covariate("temperature_c") for r in data.records] == [(0.0, 15.0), (15.0, 15.0),
+                                                                    (30.0, 15.0)]
+    spec = g.truth_spec()
+    e = effects.get("temperature")
+    cold = e.apply(spec, {"a": 0.03}, data.records[0])
+    assert cold.support.kp == pytest.approx(spec.support.kp * np.exp(0.45))
+    assert e.apply(spec, {"a": 0.03}, data.records[1]).support.kp == spec.support.kp
+    pb = Problem(data=data, evaluator=Evaluator(), spec=spec, effects=(e,))
+    x = np.array([*np.log10([400e6, 0.2, 60e6, 1.0]), 0.03])  # a enters linearly
+    pred = pb.predict(x)
+    a0, a2 = pred[data.records[0].name], pred[data.records[2].name]
+    assert np.abs(a0 - a2).max() > 0.01 * np.abs(a0).max()
+
+
+def test_noise_floor_operator_is_the_expected_log_magnitude():
+    """Monte Carlo of 20 lg |Y + n| (n complex Gaussian, RMS g |Y_0|) against the operator."""
+    rng = np.random.default_rng(1)
+    Y = np.array([1.0, 0.3, 0.05, 0.01, 0.002], dtype=complex)[None, None, :] * (1 + 1j)
+    g_db = -30.0
+    sigma = 10 ** (g_db / 20) * np.abs(Y[0, 0, 0])
+    n = (rng.standard_normal((200000, 5)) + 1j * rng.standard_normal((200000, 5))) / np.sqrt(2)
+    mc = np.mean(20 * np.log10(np.abs(Y[0, 0, :] + sigma * n)), axis=0)
+
+    class Rec:
+        pass
+
+    op = noise_floor.apply_measurement(Y, {"floor_db": g_db}, Rec())
+    assert np.allclose(20 * np.log10(np.abs(op[0, 0, 1:])), mc[1:], atol=0.02)
+
+
+def test_sensor_transmissibility_limits():
+    f = np.array([1.0, 3000.0])
+    T = sensor_resonance.transmissibility(f, 3000.0, 0.1)
+    assert abs(T[0]) == pytest.approx(1.0, abs=1e-6)
+    assert abs(T[1]) == pytest.approx(np.sqrt(1 + 0.01) / 0.1, rel=1e-12)
+
+
+# ------------------------------------------------------------------ noise or structure
+
+
+def _residual(values, x):
+    blk = R.Block(record="r", part="fit", quantity="transfer", axis="frequency", x=x,
+                  outputs=("head",), positions=np.arange(values.shape[2], dtype=float),
+                  values=values)
+    return R.Residual(blocks=(blk,))
+
+
+def test_structure_test_false_alarm_rate_on_white_noise():
+    """Independent Gaussian residuals (no model involved): the 1 % test fires in about 1 %
+    of 300 trials (binomial 99.9 % bound: <= 9)."""
+    rng = np.random.default_rng(0)
+    x = np.geomspace(50, 5000, 40)
+    alarms = sum(R.structure_test(_residual(0.3 * rng.standard_normal((40, 1, 12)), x))
+                 ["verdict"] == "structure" for _ in range(300))
+    assert alarms <= 9
+
+
+def test_structure_test_sees_a_smooth_misfit_below_the_noise():
+    """A smooth misfit of RMS 0.21 dB under white noise of 0.3 dB (12 positions, 40
+    frequencies) is called structure in >= 45 of 50 trials; its size is estimated."""
+    rng = np.random.default_rng(1)
+    x = np.geomspace(50, 5000, 40)
+    smooth = 0.3 * np.sin(np.log(x) * 2)[:, None, None] * np.ones((1, 1, 12))
+    hits = sum(R.structure_test(_residual(smooth + 0.3 * rng.standard_normal((40, 1, 12)),
+                                          x))["verdict"] == "structure" for _ in range(50))
+    assert hits >= 45
+    st = R.structure_test(_residual(smooth / 0.3 + 0.3 * rng.standard_normal((40, 1, 12)),
+                                    x))
+    assert st["structured_rms_db"] == pytest.approx(np.sqrt(0.5), abs=0.1)
+    assert st["sigma_white_db"] == pytest.approx(0.3, abs=0.05)
+
+
+# ------------------------------------------------------------------ small blind diagnosis
+
+SMALL_EFFECTS = ("pad_frequency", "foot_damping", "rail_damper", "noise_floor")
+
+
+@pytest.mark.parametrize("case", ["none", "pad_frequency", "rail_stiffness"])
+def test_small_blind_diagnosis(case):
+    """Data made by the door with an effect the diagnosis is not told about (or none, or
+    one outside the library: a softer rail), 5 % noise, a coarse grid, four candidates."""
+    d = diagnose(g.dataset(case, 3, f=SMALL_F), model="timoshenko-discrete",
+                 effects=SMALL_EFFECTS, n_starts=2)
+    if case == "none":
+        assert d.verdict == "noise" and d.chosen is None
+        return
+    if case == "rail_stiffness":
+        assert d.verdict != "explained", d.statement
+        return
+    assert d.candidates[0]["name"] == "pad_frequency"
+    assert d.verdict == "explained", d.statement
+    truth = g.CASES[case]
+    for p in d.chosen.parameters():
+        n = p["name"].split(".")[-1]
+        if n in truth:
+            assert p["ci95"][0] <= truth[n] <= p["ci95"][1], p
+    assert d.chosen_row["final_held_out"]["reduction"] >= 0.5
+
+
+# ------------------------------------------------------------------ errors and the CLI
+
+
+def test_bad_input_is_named_before_computing():
+    meas = g.dataset("none", 0, f=SMALL_F)
+    with pytest.raises(ValueError, match="unknown effect 'pad_size'"):
+        diagnose(meas, model="timoshenko-discrete", effects=["pad_size"])
+    table = rf.measurement.DecayRateMeasurement(frequency=np.array([100.0, 125, 160, 200, 250,
+                                                                    315]),
+                                                decay_rate=np.full(6, 5.0))
+    with pytest.raises(ValueError, match="sleeper spacing"):
+        prepare(table)
+
+
+def test_diagnose_cli_writes_report(tmp_path):
+    from railfem.io import write_dataset
+
+    meas = g.dataset("pad_frequency", 0, f=SMALL_F)[0]
+    src = tmp_path / "data"
+    write_dataset(src, meas)
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, "-m", "railfem.cli", "diagnose", str(src),
+                        "--model", "timoshenko-discrete", "--effects",
+                        "pad_frequency,noise_floor", "--starts", "2", "--out", str(out)],
+                       capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stderr
+    s = json.loads((out / "diagnosis.json").read_text())
+    assert s["chosen"]["name"] == "pad_frequency"
+    assert {c["name"] for c in s["candidates"]} == {"pad_frequency", "noise_floor"}
+    for f in ("report.md", "candidates.png", "residual_point.png", "residual_map_head.png",
+              "before_after_transfer.png", "run.json"):
+        assert (out / f).stat().st_size > 0, f
+    bad = subprocess.run([sys.executable, "-m", "railfem.cli", "diagnose", str(src),
+                          "--effects", "pad_size", "--out", str(tmp_path / "bad")],
+                         capture_output=True, text=True, timeout=120)
+    assert bad.returncode != 0 and "unknown effect 'pad_size'" in bad.stderr
+
+
+def test_decay_rate_campaign_finds_the_temperature_effect():
+    """Decay rates only (three dates, 0/15/30 deg C, the pad stiffening in the cold, 3 %
+    scatter): the temperature effect is found and its coefficient recovered."""
+    data = g.decay_rate_campaign(seed=2)
+    d = diagnose(data, model="timoshenko-discrete", spacing=0.6,
+                 effects=("temperature", "pad_frequency", "foot_damping"), n_starts=2)
+    assert d.candidates[0]["name"] == "temperature", d.statement
+    assert d.chosen is not None and d.chosen.name == "temperature"
+    a = [p for p in d.chosen.parameters() if p["name"] == "temperature.a"][0]
+    assert a["ci95"][0] <= 0.03 <= a["ci95"][1], a
+
+
+def test_scatter_test_against_repeat_scatter():
+    """Residuals as large as the repeat scatter: no excess, chi^2 near its dof; three times
+    the scatter: structure, excess sqrt(8) s."""
+    rng = np.random.default_rng(4)
+    bands = np.array([100.0, 125, 160, 200, 250, 315, 400, 500])
+    scatter = {float(c): 0.5 for c in bands}
+
+    def res(scale):
+        blocks = tuple(R.Block(record=f"r{i}", part="fit", quantity="tdr", axis="band",
+                               x=bands, outputs=("head",), positions=np.array([np.nan]),
+                               values=scale * 0.5 * rng.standard_normal((8, 1, 1)))
+                       for i in range(40))
+        return R.Residual(blocks=blocks)
+
+    same = R.scatter_test(res(1.0), scatter)
+    assert 0.7 < same["ratio"] < 1.3 and same["p"] > 1e-3
+    big = R.structure_test(res(3.0), repeats=scatter)
+    assert big["verdict"] == "structure"
+    assert big["structured_rms_db"] == pytest.approx(np.sqrt(np.mean(np.maximum(
+        (3 * 0.5) ** 2 * rng.standard_normal(100000) ** 2 - 0.25, 0))), rel=0.15)
