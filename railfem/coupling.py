@@ -135,8 +135,10 @@ def _spring_stiffness(K_sets: np.ndarray, weight: np.ndarray, direction=None) ->
 
 def _mirror_plan(kernel: DiscreteKernel, K_sets: np.ndarray, ss_flat: np.ndarray):
     """Index arrays for solving the even and odd parts separately when the problem is
-    symmetric under x -> -x (springs at -x_s, equal K, alpha_ss(-x) = alpha_ss(x), true for
-    vertical footprints), else None: two systems of half the size, four times less work."""
+    symmetric under x -> -x (springs at -x_s, equal K, alpha_ss(-x) = s_p s_q alpha_ss(x)
+    with s = -1 for longitudinal springs, whose displacement flips with the mirror, +1 for
+    vertical and lateral ones), else None: two systems of half the size, four times less
+    work. In part sigma (+1 even, -1 odd) F(mirror set, p) = sigma s_p F(set, p)."""
     xs, n_p = kernel.spring_x, len(kernel.spring_weight)
     n_s = len(xs)
     if n_s < 2 or not np.array_equal(np.round(xs, 12), -np.round(xs[::-1], 12)):
@@ -147,32 +149,36 @@ def _mirror_plan(kernel: DiscreteKernel, K_sets: np.ndarray, ss_flat: np.ndarray
     j = np.searchsorted(u, -u)
     if np.any(j >= len(u)) or not np.array_equal(u[np.minimum(j, len(u) - 1)], -u):
         return None
+    sign = np.where(np.asarray(kernel.spring_direction) == 0, -1.0, 1.0)  # (n_p,)
     scale = np.abs(kernel.ss).max(axis=(1, 2, 3), keepdims=True)
-    if np.any(np.abs(kernel.ss - kernel.ss[:, j]) > 1e-12 * scale):  # round-off only
+    mirrored = kernel.ss[:, j] * (sign[:, None] * sign[None, :])[None, None]
+    if np.any(np.abs(kernel.ss - mirrored) > 1e-12 * scale):  # round-off only
         return None
     n_h = n_s // 2
-    flat = lambda sets: (sets[:, None] * n_p + np.arange(n_p)[None, :]).ravel()  # noqa: E731
-    E, O = flat(np.arange(n_h + n_s % 2)), flat(np.arange(n_h))
-    JE, JO = flat(n_s - 1 - np.arange(n_h + n_s % 2)), flat(n_s - 1 - np.arange(n_h))
-    left = np.repeat(np.arange(n_h + n_s % 2) < n_h, n_p).astype(float)  # centre once
-    return dict(E=E, O=O, JE=JE, JO=JO, ee=ss_flat[np.ix_(E, E)], eJ=ss_flat[np.ix_(E, JE)],
-                oo=ss_flat[np.ix_(O, O)], oJ=ss_flat[np.ix_(O, JO)], left=left)
+    parts = []
+    for sigma in (1.0, -1.0):
+        sets = [(q, p) for q in range(n_h) for p in range(n_p)]
+        if n_s % 2:  # the centre set keeps the components its mirror leaves unchanged
+            sets += [(n_h, p) for p in range(n_p) if sigma * sign[p] > 0]
+        if not sets:
+            continue
+        q, p = np.array(sets).T
+        R, JR = q * n_p + p, (n_s - 1 - q) * n_p + p
+        parts.append(dict(R=R, JR=JR, sg=sigma * sign[p], m=(q != n_s - 1 - q).astype(float),
+                          rr=ss_flat[np.ix_(R, R)], rj=ss_flat[np.ix_(R, JR)]))
+    return parts
 
 
 def _solve_mirrored(plan, ssr, a, b, rhs):
     """F of (diag(a) + b alpha_ss) F = rhs from its even and odd parts."""
-    E, O, JE, JO = plan["E"], plan["O"], plan["JE"], plan["JO"]
-    F = np.empty(rhs.shape, dtype=complex)
-    Me = b[E, None] * (ssr[plan["ee"]] + plan["left"][None, :] * ssr[plan["eJ"]])
-    Me[np.diag_indices(len(E))] += a[E]
-    Fe = np.linalg.solve(Me, (rhs[E] + rhs[JE]) / 2)
-    F[E], F[JE] = Fe, Fe
-    if len(O):
-        Mo = b[O, None] * (ssr[plan["oo"]] - ssr[plan["oJ"]])
-        Mo[np.diag_indices(len(O))] += a[O]
-        Fo = np.linalg.solve(Mo, (rhs[O] - rhs[JO]) / 2)
-        F[O] += Fo
-        F[JO] -= Fo
+    F = np.zeros(rhs.shape, dtype=complex)
+    for part in plan:
+        R, JR, sg, m = part["R"], part["JR"], part["sg"], part["m"]
+        M = b[R, None] * (ssr[part["rr"]] + (m * sg)[None, :] * ssr[part["rj"]])
+        M[np.diag_indices(len(R))] += a[R]
+        Fp = np.linalg.solve(M, (rhs[R] + sg[:, None] * rhs[JR]) / 2)
+        F[R] += Fp
+        F[JR] += (m * sg)[:, None] * Fp
     return F
 
 
