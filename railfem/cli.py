@@ -294,6 +294,9 @@ def _track_args(p: argparse.ArgumentParser) -> None:
                         "element shape functions (default, converges with the mesh); nodes = "
                         "point springs at foot nodes (the published configuration, with "
                         "--n-foot-springs 8 --pad-length 0)")
+    g.add_argument("--support-directions", choices=("z", "zy", "zx", "zyx"), default=None,
+                   help="directions the supports act in (default z, vertical springs only); "
+                        "zyx adds lateral and longitudinal pads and the lateral decay rate")
     j = p.add_argument_group("job")
     j.add_argument("--f-low", type=_positive, default=None, metavar="HZ",
                    help="lowest band (Hz, default 50)")
@@ -343,7 +346,8 @@ def track_spec_from_args(args):
     rail = {k: x for k, x in (("profile", args.profile), ("h", h), ("eta", args.eta_r))
             if x is not None}
     top = {k: x for k, x in (("model", args.model), ("spacing", spacing), ("pad_length", pad),
-                             ("n_rows", args.n_rows), ("n_supports", args.n_supports))
+                             ("n_rows", args.n_rows), ("n_supports", args.n_supports),
+                             ("support_directions", args.support_directions))
            if x is not None}
     if sup:
         top["support"] = replace(spec.support, **sup)

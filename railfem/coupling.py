@@ -61,19 +61,32 @@ class DiscreteKernel:
     rs_index: np.ndarray
     rP: np.ndarray
     rP_index: np.ndarray
+    spring_direction: np.ndarray | None = None
+
+    def __post_init__(self):
+        _default_directions(self)
 
     def to_arrays(self) -> dict:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
     @classmethod
     def from_arrays(cls, arrays: dict) -> "DiscreteKernel":
-        return cls(**{f.name: np.asarray(arrays[f.name]) for f in fields(cls)})
+        return cls(**{f.name: np.asarray(arrays[f.name]) for f in fields(cls)
+                      if f.name in arrays})
 
     @property
     def shape(self) -> tuple[int, int, int, int]:
         """(n_s, n_p, n_rx, n_fx)."""
         return (self.ss_index.shape[0], len(self.spring_weight), self.rP_index.shape[0],
                 self.rP_index.shape[1])
+
+
+def _default_directions(kernel) -> None:
+    """spring_direction: (n_p,) direction of each spring of a set, 0/1/2 = x/y/z; kernels
+    without it (vertical models, cached before it existed) have vertical springs."""
+    d = kernel.spring_direction
+    d = np.full(len(kernel.spring_weight), 2) if d is None else np.asarray(d)
+    object.__setattr__(kernel, "spring_direction", d.astype(np.int64))
 
 
 def _row_scaling(K: np.ndarray, alpha0: np.ndarray):
@@ -92,18 +105,29 @@ def _row_scaling(K: np.ndarray, alpha0: np.ndarray):
     return a.astype(complex), b.astype(complex)
 
 
-def _check_stiffness(K: np.ndarray, n_f: int, n: int) -> np.ndarray:
+def _check_stiffness(K: np.ndarray, n_f: int, n: int, direction=None) -> np.ndarray:
+    """(n_f, n) vertical set stiffness, or (n_f, n, 3) per direction x, y, z; a kernel with
+    horizontal springs (direction codes 0, 1) needs the second form."""
     K = np.asarray(K, dtype=complex)
-    if K.shape != (n_f, n):
+    if K.shape not in ((n_f, n), (n_f, n, 3)):
         raise ValueError(f"spring stiffness has shape {K.shape}, expected (n_freq, n_springs) "
-                         f"= ({n_f}, {n})")
+                         f"= ({n_f}, {n}) or (n_freq, n_springs, 3) per direction x, y, z")
+    if K.ndim == 2 and direction is not None and np.any(np.asarray(direction) != 2):
+        raise ValueError("the kernel has lateral or longitudinal springs: give the spring "
+                         "stiffness per direction, shape (n_freq, n_springs, 3) for x, y, z")
     if np.any(np.isnan(K)):
         raise ValueError("spring stiffness contains NaN")
     return K
 
 
-def _spring_stiffness(K_sets: np.ndarray, weight: np.ndarray) -> np.ndarray:
-    """Stiffness of every spring, set-major: a rigid set stays rigid (inf * w is not NaN)."""
+def _spring_stiffness(K_sets: np.ndarray, weight: np.ndarray, direction=None) -> np.ndarray:
+    """Stiffness of every spring, set-major: a rigid set stays rigid (inf * w is not NaN).
+    K_sets: (n_sets,) vertical, or (n_sets, 3) per direction, picked by ``direction``."""
+    if K_sets.ndim == 2:
+        K_sets = K_sets[:, direction]  # (n_sets, n_p)
+        with np.errstate(invalid="ignore"):
+            K = K_sets * weight[None, :]
+        return np.where(np.isinf(K_sets), complex(np.inf), K).ravel()
     with np.errstate(invalid="ignore"):
         K = K_sets[:, None] * weight[None, :]
     return np.where(np.isinf(K_sets)[:, None], complex(np.inf), K).ravel()
@@ -111,8 +135,10 @@ def _spring_stiffness(K_sets: np.ndarray, weight: np.ndarray) -> np.ndarray:
 
 def _mirror_plan(kernel: DiscreteKernel, K_sets: np.ndarray, ss_flat: np.ndarray):
     """Index arrays for solving the even and odd parts separately when the problem is
-    symmetric under x -> -x (springs at -x_s, equal K, alpha_ss(-x) = alpha_ss(x), true for
-    vertical footprints), else None: two systems of half the size, four times less work."""
+    symmetric under x -> -x (springs at -x_s, equal K, alpha_ss(-x) = s_p s_q alpha_ss(x)
+    with s = -1 for longitudinal springs, whose displacement flips with the mirror, +1 for
+    vertical and lateral ones), else None: two systems of half the size, four times less
+    work. In part sigma (+1 even, -1 odd) F(mirror set, p) = sigma s_p F(set, p)."""
     xs, n_p = kernel.spring_x, len(kernel.spring_weight)
     n_s = len(xs)
     if n_s < 2 or not np.array_equal(np.round(xs, 12), -np.round(xs[::-1], 12)):
@@ -123,32 +149,36 @@ def _mirror_plan(kernel: DiscreteKernel, K_sets: np.ndarray, ss_flat: np.ndarray
     j = np.searchsorted(u, -u)
     if np.any(j >= len(u)) or not np.array_equal(u[np.minimum(j, len(u) - 1)], -u):
         return None
+    sign = np.where(np.asarray(kernel.spring_direction) == 0, -1.0, 1.0)  # (n_p,)
     scale = np.abs(kernel.ss).max(axis=(1, 2, 3), keepdims=True)
-    if np.any(np.abs(kernel.ss - kernel.ss[:, j]) > 1e-12 * scale):  # round-off only
+    mirrored = kernel.ss[:, j] * (sign[:, None] * sign[None, :])[None, None]
+    if np.any(np.abs(kernel.ss - mirrored) > 1e-12 * scale):  # round-off only
         return None
     n_h = n_s // 2
-    flat = lambda sets: (sets[:, None] * n_p + np.arange(n_p)[None, :]).ravel()  # noqa: E731
-    E, O = flat(np.arange(n_h + n_s % 2)), flat(np.arange(n_h))
-    JE, JO = flat(n_s - 1 - np.arange(n_h + n_s % 2)), flat(n_s - 1 - np.arange(n_h))
-    left = np.repeat(np.arange(n_h + n_s % 2) < n_h, n_p).astype(float)  # centre once
-    return dict(E=E, O=O, JE=JE, JO=JO, ee=ss_flat[np.ix_(E, E)], eJ=ss_flat[np.ix_(E, JE)],
-                oo=ss_flat[np.ix_(O, O)], oJ=ss_flat[np.ix_(O, JO)], left=left)
+    parts = []
+    for sigma in (1.0, -1.0):
+        sets = [(q, p) for q in range(n_h) for p in range(n_p)]
+        if n_s % 2:  # the centre set keeps the components its mirror leaves unchanged
+            sets += [(n_h, p) for p in range(n_p) if sigma * sign[p] > 0]
+        if not sets:
+            continue
+        q, p = np.array(sets).T
+        R, JR = q * n_p + p, (n_s - 1 - q) * n_p + p
+        parts.append(dict(R=R, JR=JR, sg=sigma * sign[p], m=(q != n_s - 1 - q).astype(float),
+                          rr=ss_flat[np.ix_(R, R)], rj=ss_flat[np.ix_(R, JR)]))
+    return parts
 
 
 def _solve_mirrored(plan, ssr, a, b, rhs):
     """F of (diag(a) + b alpha_ss) F = rhs from its even and odd parts."""
-    E, O, JE, JO = plan["E"], plan["O"], plan["JE"], plan["JO"]
-    F = np.empty(rhs.shape, dtype=complex)
-    Me = b[E, None] * (ssr[plan["ee"]] + plan["left"][None, :] * ssr[plan["eJ"]])
-    Me[np.diag_indices(len(E))] += a[E]
-    Fe = np.linalg.solve(Me, (rhs[E] + rhs[JE]) / 2)
-    F[E], F[JE] = Fe, Fe
-    if len(O):
-        Mo = b[O, None] * (ssr[plan["oo"]] - ssr[plan["oJ"]])
-        Mo[np.diag_indices(len(O))] += a[O]
-        Fo = np.linalg.solve(Mo, (rhs[O] - rhs[JO]) / 2)
-        F[O] += Fo
-        F[JO] -= Fo
+    F = np.zeros(rhs.shape, dtype=complex)
+    for part in plan:
+        R, JR, sg, m = part["R"], part["JR"], part["sg"], part["m"]
+        M = b[R, None] * (ssr[part["rr"]] + (m * sg)[None, :] * ssr[part["rj"]])
+        M[np.diag_indices(len(R))] += a[R]
+        Fp = np.linalg.solve(M, (rhs[R] + sg[:, None] * rhs[JR]) / 2)
+        F[R] += Fp
+        F[JR] += (m * sg)[:, None] * Fp
     return F
 
 
@@ -156,13 +186,15 @@ def couple_discrete(kernel: DiscreteKernel, stiffness) -> np.ndarray:
     """Receptance (nf, n_out, n_rx, n_fx) of the supported rail (m/N).
 
     stiffness: (nf, n_s) dynamic stiffness of each spring set (N/m, complex; one support or
-    one row of a spread support), shared by its n_p springs by ``kernel.spring_weight``.
+    one row of a spread support), shared by its n_p springs by ``kernel.spring_weight``;
+    (nf, n_s, 3) per direction x, y, z when the springs act in several
+    (``kernel.spring_direction``).
     A layout symmetric about x = 0 with symmetric stiffness (any uniform track) is solved
     as its even and odd parts.
     """
     n_s, n_p, n_rx, n_fx = kernel.shape
     nf = len(kernel.frequency)
-    K_sets = _check_stiffness(stiffness, nf, n_s)
+    K_sets = _check_stiffness(stiffness, nf, n_s, kernel.spring_direction)
     n = n_s * n_p
     # flat gather indices into (n_u * n_p * n_p) etc., built once per call
     pp = np.arange(n_p)
@@ -180,7 +212,7 @@ def couple_discrete(kernel: DiscreteKernel, stiffness) -> np.ndarray:
     for i in range(nf):
         ssr = kernel.ss[i].ravel()
         B = kernel.sP[i].ravel()[sP_flat]
-        K = _spring_stiffness(K_sets[i], kernel.spring_weight)
+        K = _spring_stiffness(K_sets[i], kernel.spring_weight, kernel.spring_direction)
         a, b = _row_scaling(K, ssr[ss_flat[diag, diag]])
         if plan is not None:
             F = _solve_mirrored(plan, ssr, a, b, b[:, None] * B)
@@ -221,13 +253,18 @@ class PeriodicKernel:
     rs_u: np.ndarray
     rs_m: np.ndarray
     direct: np.ndarray
+    spring_direction: np.ndarray | None = None
+
+    def __post_init__(self):
+        _default_directions(self)
 
     def to_arrays(self) -> dict:
         return {f.name: getattr(self, f.name) for f in fields(self)}
 
     @classmethod
     def from_arrays(cls, arrays: dict) -> "PeriodicKernel":
-        return cls(**{f.name: np.asarray(arrays[f.name]) for f in fields(cls)})
+        return cls(**{f.name: np.asarray(arrays[f.name]) for f in fields(cls)
+                      if f.name in arrays})
 
 
 def theta_mean(values: np.ndarray, theta: np.ndarray, m: np.ndarray) -> np.ndarray:
@@ -243,7 +280,8 @@ def theta_mean(values: np.ndarray, theta: np.ndarray, m: np.ndarray) -> np.ndarr
 def couple_periodic(kernel: PeriodicKernel, stiffness) -> np.ndarray:
     """Receptance (nf, n_out, n_rx, n_fx) of the rail on identical periodic supports (m/N).
 
-    stiffness: (nf, n_r) dynamic stiffness of each spring row of one support (N/m).
+    stiffness: (nf, n_r) dynamic stiffness of each spring row of one support (N/m), or
+    (nf, n_r, 3) per direction x, y, z.
     Per Floquet angle (I + K L_ss) Z = K L_sP is solved for a unit load at each distinct
     residual and row; the reacted response sum_t exp(i n theta) L_rs Z is then one FFT over
     theta, gathered at the shifts n = m_rs + m_sP of each response-load pair.
@@ -254,7 +292,7 @@ def couple_periodic(kernel: PeriodicKernel, stiffness) -> np.ndarray:
     n = n_r * n_p
     n_u = kernel.sP.shape[2]
     n_out = kernel.rs.shape[3]
-    K_rows = _check_stiffness(stiffness, nf, n_r)
+    K_rows = _check_stiffness(stiffness, nf, n_r, kernel.spring_direction)
     n_rx, n_fx = kernel.direct.shape[2:]
     diag = np.arange(n)
     rows = np.arange(n_r)
@@ -267,7 +305,7 @@ def couple_periodic(kernel: PeriodicKernel, stiffness) -> np.ndarray:
     iu_rs = kernel.rs_u[:, :, None, None]
     iu_sP = kernel.sP_u.T[None, None, :, :]
     for i in range(nf):
-        K = _spring_stiffness(K_rows[i], kernel.spring_weight)
+        K = _spring_stiffness(K_rows[i], kernel.spring_weight, kernel.spring_direction)
         Lss = kernel.ss[i]
         a, b = _row_scaling(K, np.abs(Lss[:, diag, diag]).mean(axis=0))
         M = b[None, :, None] * Lss

@@ -98,9 +98,11 @@ def _edge_parameter(yn: np.ndarray, y: float) -> float:
     return float(np.clip(t, 0.0, 1.0))
 
 
-def point_weights(guide: Waveguide, y: float, edges: np.ndarray | None = None) -> np.ndarray:
-    """(N,) weights over the vertical DOFs that read the foot-underside displacement at
-    lateral position y (m): the P2 shape functions of the underside edge holding y."""
+def point_weights(guide: Waveguide, y: float, edges: np.ndarray | None = None,
+                  component: int = 2) -> np.ndarray:
+    """(N,) weights over the DOFs of ``component`` (0 = u_x, 1 = u_y, 2 = u_z, the default)
+    that read the foot-underside displacement at lateral position y (m): the P2 shape
+    functions of the underside edge holding y."""
     edges = underside_edges(guide) if edges is None else edges
     yn = guide.nodes[edges, 0]  # (ne, 3)
     lo, hi = yn[:, :2].min(axis=1), yn[:, :2].max(axis=1)
@@ -112,12 +114,28 @@ def point_weights(guide: Waveguide, y: float, edges: np.ndarray | None = None) -
     j = inside[0]
     t = _edge_parameter(yn[j], y)
     w = np.zeros(guide.n_dofs)
-    w[guide.node_dofs[edges[j], 2]] = shape_functions(t)
+    w[guide.node_dofs[edges[j], component]] = shape_functions(t)
     return w
 
 
 def width_points(guide: Waveguide, n: int, rule: str = "midpoint") -> WidthPoints:
     """n springs of one support across the foot underside by ``rule`` (see the module)."""
+    reads, ys, share = spring_reads(guide, n, rule)
+    pairs, shares, ypair = [], [], []
+    for i in range(n // 2 + n % 2):
+        a, b = i, n - 1 - i
+        pairs.append(Location(label=f"foot_spring_{i}", weights=0.5 * (reads[a] + reads[b])))
+        shares.append(share[a] + (share[b] if b != a else 0.0))
+        ypair.append(abs(ys[a]))
+    return WidthPoints(pairs=tuple(pairs), share=np.array(shares), y=np.array(ypair),
+                       rule=rule, n=int(n))
+
+
+def spring_reads(guide: Waveguide, n: int, rule: str = "midpoint", component: int = 2):
+    """(reads, y, share) of the n springs of one support across the foot underside by
+    ``rule``, sorted by y: per spring the (N,) weights over the DOFs of ``component``
+    (0 = u_x, 1 = u_y, 2 = u_z) that read the rail at the spring (and spread its force),
+    its lateral position y (m) and its share of the support (sums to 1)."""
     if rule not in RULES:
         raise ValueError(f"footprint rule {rule!r} is not one of {', '.join(RULES)}")
     if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
@@ -138,20 +156,13 @@ def width_points(guide: Waveguide, n: int, rule: str = "midpoint") -> WidthPoint
         reads = []
         for node in chosen:
             w = np.zeros(guide.n_dofs)
-            w[guide.node_dofs[node, 2]] = 1.0
+            w[guide.node_dofs[node, component]] = 1.0
             reads.append(w)
     else:
         ys = targets
         share = np.full(n, 1.0 / n)
-        reads = [point_weights(guide, float(y), edges) for y in ys]
-    pairs, shares, ypair = [], [], []
-    for i in range(n // 2 + n % 2):
-        a, b = i, n - 1 - i
-        pairs.append(Location(label=f"foot_spring_{i}", weights=0.5 * (reads[a] + reads[b])))
-        shares.append(share[a] + (share[b] if b != a else 0.0))
-        ypair.append(abs(ys[a]))
-    return WidthPoints(pairs=tuple(pairs), share=np.array(shares), y=np.array(ypair),
-                       rule=rule, n=int(n))
+        reads = [point_weights(guide, float(y), edges, component) for y in ys]
+    return reads, ys, share
 
 
 def bed_matrix(points: WidthPoints):
@@ -190,4 +201,4 @@ def consistent_bed(guide: Waveguide):
 
 
 __all__ = ["RULES", "WidthPoints", "bed_matrix", "consistent_bed", "point_weights",
-           "shape_functions", "underside_edges", "width_points"]
+           "shape_functions", "spring_reads", "underside_edges", "width_points"]

@@ -96,9 +96,11 @@ def _edge_patch_loads(y: np.ndarray, lo: float, hi: float) -> np.ndarray:
 
 
 def surface_patch(guide: Waveguide, centre: tuple[float, float], width: float,
-                  direction: str = "z", label: str | None = None) -> Location:
+                  direction: str = "z", label: str | None = None,
+                  along: str = "y") -> Location:
     """Uniform traction (per unit lateral width) over the boundary within `width` (m,
-    measured along y) of `centre`; consistent P2 nodal loads, normalised to a unit resultant.
+    measured along y, or along z with along='z' for a patch on a side face) of `centre`;
+    consistent P2 nodal loads, normalised to a unit resultant.
 
     The boundary edges are the P2 edges of the mesh, curved on a curved mesh: each edge gets
     the exact integrals of its shape functions times |dy/dt| over the part of it whose y is
@@ -118,8 +120,9 @@ def surface_patch(guide: Waveguide, centre: tuple[float, float], width: float,
     mid = nodes[ed[:, 2]]
     near = np.nonzero(np.hypot(mid[:, 0] - centre[0], mid[:, 1] - centre[1])
                       < max(width, 2 * guide.mesh.h))[0]
-    lo, hi = centre[0] - width / 2, centre[0] + width / 2
-    loads = np.array([_edge_patch_loads(nodes[ed[i], 0], lo, hi) for i in near]).reshape(-1, 3)
+    a = {"y": 0, "z": 1}[along]
+    lo, hi = centre[a] - width / 2, centre[a] + width / 2
+    loads = np.array([_edge_patch_loads(nodes[ed[i], a], lo, hi) for i in near]).reshape(-1, 3)
     keep = loads.sum(axis=1) > 0
     if not keep.any():
         raise ValueError(f"no boundary of the section lies within {width} m of {centre}; "

@@ -15,9 +15,13 @@ inside the wave solve and is recomputed on every call.
 Points: ``head(x)`` is a vertical force on a patch across the head top (width
 ``numerics.patch_width``, spread over ``numerics.load_length`` along the rail) or the
 vertical response of the head-top node; ``foot(x)`` the response of the foot-top sensor
-node. The supported-track models take vertical forces on the head (the mirror plane);
-lateral loads are not modelled yet. Beam models have no cross-section: head and foot
-responses both read the beam's deflection at x.
+node. ``head(x, "y")`` is the lateral channel 'head_lateral': a lateral (+y) force on a
+patch of the same height on the side face of the head (centred HEAD_SIDE_DEPTH below the
+head top, the +y side), or the lateral response of the side-face node there. A lateral
+load excites both wave families and needs supports acting laterally
+(``TrackSpec.support_directions`` with 'y'); the WFE models superpose the families.
+Beam models have no cross-section and are vertical: head and foot responses both read the
+beam's deflection at x.
 
 Discrete models: a track without deviations is periodic, so each force-response pair is
 computed on the n_supports supports re-centred on the pair (the support nearest to their
@@ -40,14 +44,21 @@ from .standards import en15461
 
 log = logging.getLogger(__name__)
 
-WHERE = ("head", "foot")
+WHERE = ("head", "foot")  # the vertical channels
+LATERAL = ("head_lateral",)  # the lateral channel: u_y on the side face of the head
+CHANNELS = WHERE + LATERAL
+FORCES = ("head", "head_lateral")
 POINT_OFFSET = 0.02  # m: hammer position 0 is realised 20 mm from the accelerometer
+#: Depth (m) below the head top of the lateral hammer and sensor on the head's side face:
+#: the gauge measuring point of EN 13848-1 / EN 13674-1 (14 mm below the running surface).
+HEAD_SIDE_DEPTH = 0.014
 
 
 @dataclass(frozen=True)
 class Point:
     """A force or response point: ``where`` on the section ('head' or 'foot'), ``x`` along
-    the rail (m) and the direction ('z': vertical, the only one supported so far)."""
+    the rail (m) and the direction ('z' vertical; 'y' lateral, on the head only: the
+    channel 'head_lateral' on the side face of the head)."""
 
     where: str
     x: float
@@ -58,9 +69,17 @@ class Point:
             raise ValueError(f"Point.where = {self.where!r}: use one of {', '.join(WHERE)}")
         if not np.isfinite(self.x):
             raise ValueError(f"Point.x = {self.x!r}: give a finite position along the rail (m)")
-        if self.direction != "z":
+        if self.direction not in ("z", "y"):
             raise ValueError(f"Point.direction = {self.direction!r}: the track models take "
-                             "vertical ('z') forces and responses only")
+                             "vertical ('z') and lateral ('y') forces and responses")
+        if self.direction == "y" and self.where != "head":
+            raise ValueError(f"Point({self.where!r}, direction='y'): the lateral channel is on "
+                             "the side of the head; use head(x, 'y')")
+
+    @property
+    def channel(self) -> str:
+        """'head', 'foot' or 'head_lateral'."""
+        return self.where if self.direction == "z" else f"{self.where}_lateral"
 
     @property
     def label(self) -> str:
@@ -82,14 +101,35 @@ def foot(x: float = 0.0, direction: str = "z") -> Point:
 
 @dataclass(frozen=True, eq=False)
 class Rail:
-    """A prepared WFE rail: waveguide, the head load patch, the output locations and the
-    foot springs, plus the content key of all of them (for the kernel cache)."""
+    """A prepared WFE rail: waveguide, the head load patch (``load``, vertical) and the
+    load of every force channel (``loads``), the output locations and the foot springs,
+    plus the content key of all of them (for the kernel cache)."""
 
     guide: waveguide.Waveguide
     load: mobility.Location
     outputs: dict
     springs: track.FootSprings
     key: tuple
+    loads: dict | None = None
+
+
+def head_side(guide: waveguide.Waveguide, depth: float = HEAD_SIDE_DEPTH) -> tuple:
+    """(y, z) in m of the point on the +y side face of the head ``depth`` below the head
+    top: the outermost boundary point at that height."""
+    top = guide.nodes[guide.node("head_top")]
+    z = float(top[1]) - depth
+    b = guide.node_sets["boundary"]
+    e = guide.elements
+    edges = np.vstack([e[:, [0, 1, 3]], e[:, [1, 2, 4]], e[:, [2, 0, 5]]])
+    edges = edges[np.isin(edges[:, 2], b)]
+    zn = guide.nodes[edges[:, :2], 1]
+    cross = edges[(zn.min(axis=1) <= z) & (zn.max(axis=1) >= z)]
+    if len(cross) == 0:
+        raise ValueError(f"no boundary of the section at {depth} m below the head top")
+    a, c = guide.nodes[cross[:, 0]], guide.nodes[cross[:, 1]]
+    t = (z - a[:, 1]) / np.where(c[:, 1] != a[:, 1], c[:, 1] - a[:, 1], 1.0)
+    y = a[:, 0] + t * (c[:, 0] - a[:, 0])  # chord; the patch is read on the curved edges
+    return float(y.max()), z
 
 
 @lru_cache(maxsize=4)
@@ -102,19 +142,47 @@ def rail_mesh(rail: RailSpec):
 
 @lru_cache(maxsize=4)
 def wfe_rail(rail: RailSpec, patch_width: float, n_foot_springs: int,
-             foot_rule: str = "midpoint") -> Rail:
-    """The WFE rail of ``rail`` (memoised: a fitter's repeated calls reuse it)."""
+             foot_rule: str = "midpoint", directions: str = "z") -> Rail:
+    """The WFE rail of ``rail`` (memoised: a fitter's repeated calls reuse it), its foot
+    springs acting in ``directions`` (TrackSpec.support_directions)."""
     mesh = rail_mesh(rail)
     guide = waveguide.assemble(mesh, rail.material())
     outputs = {"head": mobility.point(guide, "head_top", label="head"),
                "foot": mobility.point(guide, "foot_sensor", label="foot")}
     load = mobility.head_patch(guide, patch_width)
-    springs = track.foot_springs(guide, n_foot_springs, rule=foot_rule)
+    side = head_side(guide)
+    lateral = mobility.surface_patch(guide, side, patch_width, "y", label="head_lateral",
+                                     along="z")
+    node = waveguide.nearest_boundary_node(guide, *side)
+    outputs["head_lateral"] = mobility.point(guide, node, "y", label="head_lateral")
+    springs = track.foot_springs(guide, n_foot_springs, rule=foot_rule,
+                                 directions=directions)
     m = rail.material()
+    # the vertical channels' key as before; other channels and springs add to it
     key = (mesh.nodes, mesh.elements, (m.E, m.nu, m.rho, m.loss_factor), load.weights,
-           tuple(o.weights for o in outputs.values()), tuple(p.weights for p in springs.pairs),
+           tuple(outputs[o].weights for o in WHERE), tuple(p.weights for p in springs.pairs),
            np.asarray(springs.weight))
-    return Rail(guide=guide, load=load, outputs=outputs, springs=springs, key=key)
+    if directions != "z":
+        key += (directions, tuple(p.weights for p in springs.others),
+                springs.other_weight)
+    return Rail(guide=guide, load=load, outputs=outputs, springs=springs, key=key,
+                loads={"head": load, "head_lateral": lateral})
+
+
+def _rail_of(spec: TrackSpec) -> Rail:
+    n = spec.numerics
+    if spec.support_directions == "z":  # the memo key of vertical models as before
+        return wfe_rail(spec.rail, n.patch_width, n.n_foot_springs, n.foot_rule)
+    return wfe_rail(spec.rail, n.patch_width, n.n_foot_springs, n.foot_rule,
+                    spec.support_directions)
+
+
+def _channel_key(rail: Rail, force: str, outputs) -> tuple:
+    """Kernel-cache key parts of the force and output channels beyond the vertical ones."""
+    extra = [o for o in outputs if o not in WHERE]
+    if force == "head" and not extra:
+        return ()
+    return (force, rail.loads[force].weights, tuple(rail.outputs[o].weights for o in extra))
 
 
 @lru_cache(maxsize=8)
@@ -150,11 +218,30 @@ def _version() -> str:
     return __version__
 
 
+def _check_channels(spec: TrackSpec, force: str, outputs) -> None:
+    if force not in FORCES:
+        raise ValueError(f"force channel {force!r}: use one of {', '.join(FORCES)}")
+    for o in outputs:
+        if o not in CHANNELS:
+            raise ValueError(f"output {o!r}: use one of {', '.join(CHANNELS)}")
+    lateral = [c for c in (force, *outputs) if c in LATERAL]
+    if not lateral:
+        return
+    if spec.model.startswith("timoshenko"):
+        raise ValueError(f"channel {lateral[0]!r} with model {spec.model!r}: the Timoshenko "
+                         "models are vertical; use a WFE model for lateral channels")
+    if "y" not in spec.support_directions:
+        raise ValueError(f"channel {lateral[0]!r} needs supports that act laterally: the spec "
+                         f"has support_directions = {spec.support_directions!r}; set "
+                         "support_directions = 'zyx' (and the lateral pad kp_lat > 0)")
+
+
 def receptance(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE,
-               cache=None, progress=None) -> np.ndarray:
-    """Receptance (nf, n_out, n_rx, n_fx) in m/N of the track ``spec``: vertical unit force
-    on the head at each force_x, response at each response_x (m) for each output in
-    ``outputs`` ('head', 'foot'). The grid form behind ``frf``.
+               force: str = "head", cache=None, progress=None) -> np.ndarray:
+    """Receptance (nf, n_out, n_rx, n_fx) in m/N of the track ``spec``: unit force in the
+    channel ``force`` ('head': vertical on the head top, default; 'head_lateral': lateral
+    on the side of the head) at each force_x, response at each response_x (m) for each
+    output in ``outputs`` ('head', 'foot', 'head_lateral'). The grid form behind ``frf``.
 
     cache: kernel cache (railfem.kernelcache.resolve: None = the default folder, a folder,
     False = memory only, or a KernelStore)."""
@@ -167,33 +254,31 @@ def receptance(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE
         if x.ndim != 1 or not np.all(np.isfinite(x)):
             raise ValueError(f"{name} must be a 1-D array of finite positions (m)")
     outputs = tuple(outputs)
-    for o in outputs:
-        if o not in WHERE:
-            raise ValueError(f"output {o!r}: use 'head' or 'foot'")
+    _check_channels(spec, force, outputs)
     _warn_validity(spec, f, fx, rx)
     store = kernelcache.resolve(cache)
     model = spec.model
     if model.endswith("discrete") and spec.uniform:
-        return _centred_on_pairs(spec, f, fx, rx, outputs, store, progress)
+        return _centred_on_pairs(spec, f, fx, rx, outputs, store, progress, force)
     if model == "wfe-discrete":
-        return _wfe_discrete(spec, f, fx, rx, outputs, store, progress)
+        return _wfe_discrete(spec, f, fx, rx, outputs, store, progress, force=force)
     if model == "timoshenko-discrete":
         return _beam_discrete(spec, f, fx, rx, outputs, store)
     if model == "wfe-periodic":
-        return _wfe_periodic(spec, f, fx, rx, outputs, store, progress)
+        return _wfe_periodic(spec, f, fx, rx, outputs, store, progress, force)
     sep = rx[:, None] - fx[None, :]
     if model == "timoshenko-continuous":
         a = beams.continuous_track_receptance(beam_section(spec.rail), spec.support,
                                               spec.spacing, 2 * np.pi * f, sep.ravel())
         return np.repeat(a.reshape(len(f), 1, *sep.shape), len(outputs), axis=1)
-    rail = wfe_rail(spec.rail, spec.numerics.patch_width, spec.numerics.n_foot_springs,
-                    spec.numerics.foot_rule)
+    rail = _rail_of(spec)
     u, inv = np.unique(np.round(sep, 12), return_inverse=True)
-    r = track.continuous_receptance(rail.guide, spec.support, spec.spacing, f, load=rail.load,
+    r = track.continuous_receptance(rail.guide, spec.support, spec.spacing, f,
+                                    load=rail.loads[force],
                                     outputs=[rail.outputs[o] for o in outputs], x=u,
                                     load_length=spec.numerics.load_length,
                                     n_waves=spec.numerics.n_waves, tail=spec.numerics.tail,
-                                    progress=progress)
+                                    directions=spec.support_directions, progress=progress)
     return r.receptance[:, :, inv.reshape(sep.shape), 0]
 
 
@@ -235,24 +320,27 @@ def _warn_validity(spec: TrackSpec, f, fx, rx) -> None:
                         "n_supports or use wfe-periodic", span, spec.n_supports, reach)
 
 
-def _centred_on_pairs(spec, f, fx, rx, outputs, store, progress):
+def _centred_on_pairs(spec, f, fx, rx, outputs, store, progress, force="head"):
     """Uniform discrete tracks: each pair (x_P, x_r) is computed as (x_P - c, x_r - c), c the
     support nearest to their midpoint; one solve serves every pair."""
     uf, ur, jr, jf = _centring(spec, fx, rx)
     if spec.model == "timoshenko-discrete":
         a = _beam_discrete(spec, f, uf, ur, outputs, store)
     else:
-        a = _wfe_discrete(spec, f, uf, ur, outputs, store, progress)
+        a = _wfe_discrete(spec, f, uf, ur, outputs, store, progress, force=force)
     return a[:, :, jr, jf]
 
 
 def discrete_kernel(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE,
-                    cache=None, progress=None):
+                    force: str = "head", cache=None, progress=None):
     """The parameter-free kernel of a uniform discrete track (wfe-discrete or
     timoshenko-discrete) for the fitter (railfem.identify): returns (kernel, jr, jf) such
     that ``couple_discrete(kernel, K)[:, :, jr, jf]`` is ``receptance(spec, ...)``, with K
     the (nf, n_sets) stiffness of spec.layout()'s spring sets. A beam kernel has one
-    output (the beam's deflection serves head and foot)."""
+    output (the beam's deflection serves head and foot). With horizontal springs
+    (support_directions beyond 'z') K is (nf, n_sets, 3) per direction x, y, z
+    (track.spring_stiffness)."""
+    _check_channels(spec, force, tuple(outputs))
     if spec.model not in ("wfe-discrete", "timoshenko-discrete") or not spec.uniform:
         raise ValueError(f"discrete_kernel needs a uniform discrete model, got {spec.model!r}"
                          + ("" if spec.uniform else " with deviations"))
@@ -264,7 +352,8 @@ def discrete_kernel(spec: TrackSpec, frequency, force_x, response_x, *, outputs=
     if spec.model == "timoshenko-discrete":
         kernel = _beam_discrete(spec, f, uf, ur, tuple(outputs), store, couple=False)
     else:
-        kernel = _wfe_discrete(spec, f, uf, ur, tuple(outputs), store, progress, couple=False)
+        kernel = _wfe_discrete(spec, f, uf, ur, tuple(outputs), store, progress, couple=False,
+                               force=force)
     return kernel, jr, jf
 
 
@@ -273,17 +362,17 @@ def _key(kind, spec, *parts):
     return kernelcache.content_key(kind, _version(), n.n_waves, n.tail, n.load_length, *parts)
 
 
-def _wfe_discrete(spec, f, fx, rx, outputs, store, progress, couple=True):
-    rail = wfe_rail(spec.rail, spec.numerics.patch_width, spec.numerics.n_foot_springs,
-                    spec.numerics.foot_rule)
+def _wfe_discrete(spec, f, fx, rx, outputs, store, progress, couple=True, force="head"):
+    rail = _rail_of(spec)
     lay = spec.layout()
     xs = lay.springs().x
     outs = [rail.outputs[o] for o in outputs]
-    key = _key("wfe-discrete", spec, rail.key, outputs, xs, lay.row_length, fx, rx, f)
+    key = _key("wfe-discrete", spec, rail.key, outputs, xs, lay.row_length, fx, rx, f,
+               *_channel_key(rail, force, outputs))
     n = spec.numerics
 
     def compute():
-        return track.discrete_kernel(rail.guide, rail.springs, xs, f, load=rail.load,
+        return track.discrete_kernel(rail.guide, rail.springs, xs, f, load=rail.loads[force],
                                      outputs=outs, force_x=fx, response_x=rx,
                                      spring_length=lay.row_length, load_length=n.load_length,
                                      n_waves=n.n_waves, tail=n.tail,
@@ -292,7 +381,7 @@ def _wfe_discrete(spec, f, fx, rx, outputs, store, progress, couple=True):
     kernel = DiscreteKernel.from_arrays(store.cached(key, compute))
     if not couple:
         return kernel
-    return couple_discrete(kernel, lay.spring_stiffness(2 * np.pi * f))
+    return couple_discrete(kernel, track.spring_stiffness(lay, 2 * np.pi * f, kernel))
 
 
 def _beam_discrete(spec, f, fx, rx, outputs, store, couple=True):
@@ -313,36 +402,36 @@ def _beam_discrete(spec, f, fx, rx, outputs, store, couple=True):
     return np.repeat(a, len(outputs), axis=1)
 
 
-def _wfe_periodic(spec, f, fx, rx, outputs, store, progress):
+def _wfe_periodic(spec, f, fx, rx, outputs, store, progress, force="head"):
     from .supports import uniform_layout
 
-    rail = wfe_rail(spec.rail, spec.numerics.patch_width, spec.numerics.n_foot_springs,
-                    spec.numerics.foot_rule)
+    rail = _rail_of(spec)
     cell = uniform_layout(spec.support, spec.spacing, n=1, pad_length=spec.pad_length,
                           n_rows=spec.n_rows)
     o = cell.springs().x
     n = spec.numerics
     outs = [rail.outputs[x] for x in outputs]
     key = _key("wfe-periodic", spec, rail.key, outputs, o, cell.row_length, spec.spacing,
-               n.n_theta, fx, rx, f)
+               n.n_theta, fx, rx, f, *_channel_key(rail, force, outputs))
 
     def compute():
         return track.periodic_kernel(rail.guide, rail.springs, o, spec.spacing, f,
-                                     load=rail.load, outputs=outs, force_x=fx, response_x=rx,
+                                     load=rail.loads[force], outputs=outs, force_x=fx,
+                                     response_x=rx,
                                      spring_length=cell.row_length,
                                      load_length=n.load_length, n_theta=n.n_theta,
                                      n_waves=n.n_waves, tail=n.tail,
                                      progress=progress).to_arrays()
 
     kernel = PeriodicKernel.from_arrays(store.cached(key, compute))
-    return couple_periodic(kernel, cell.spring_stiffness(2 * np.pi * f))
+    return couple_periodic(kernel, track.spring_stiffness(cell, 2 * np.pi * f, kernel))
 
 
 def frf(spec: TrackSpec, frequency, *, force, response, quantity: str = "mobility",
         cache=None, progress=None) -> FRF:
     """The FRF (quantity: receptance, mobility or accelerance) of the track ``spec`` between
-    the Points ``force`` (vertical forces on the head) and ``response``, at ``frequency``
-    (Hz). values[f, i, j] is response i per unit force j."""
+    the Points ``force`` (forces on the head: vertical, or lateral with direction 'y') and
+    ``response``, at ``frequency`` (Hz). values[f, i, j] is response i per unit force j."""
     force, response = list(force), list(response)
     if not force or not response:
         raise ValueError("give at least one force and one response Point")
@@ -355,12 +444,18 @@ def frf(spec: TrackSpec, frequency, *, force, response, quantity: str = "mobilit
         raise ValueError(f"force at {bad[0].label}: the track models take vertical forces on "
                          "the rail head")
     f = _frequency(frequency)
-    fx, jf = np.unique([p.x for p in force], return_inverse=True)
     rx, jr = np.unique([p.x for p in response], return_inverse=True)
-    outputs = tuple(o for o in WHERE if any(p.where == o for p in response))
-    a = receptance(spec, f, fx, rx, outputs=outputs, cache=cache, progress=progress)
-    jo = np.array([outputs.index(p.where) for p in response])
-    values = a[:, jo[:, None], jr[:, None], jf[None, :]]
+    outputs = tuple(o for o in CHANNELS if any(p.channel == o for p in response))
+    jo = np.array([outputs.index(p.channel) for p in response])
+    values = np.empty((len(f), len(response), len(force)), dtype=complex)
+    for channel in FORCES:  # one solve per force channel, the families superposed inside
+        cols = [j for j, p in enumerate(force) if p.channel == channel]
+        if not cols:
+            continue
+        fx, jf = np.unique([force[j].x for j in cols], return_inverse=True)
+        a = receptance(spec, f, fx, rx, outputs=outputs, force=channel, cache=cache,
+                       progress=progress)
+        values[:, :, cols] = a[:, jo[:, None], jr[:, None], jf[None, :]]
     out = FRF(frequency=f, values=values, quantity="receptance",
               response=tuple(p.label for p in response), force=tuple(p.label for p in force),
               response_x=[p.x for p in response], force_x=[p.x for p in force])
@@ -384,17 +479,22 @@ def hammer_x(spec: TrackSpec, positions=None, offset: float = POINT_OFFSET,
 
 def decay_rate(spec: TrackSpec, frequency, *, output: str = "head", positions=None,
                offset: float = POINT_OFFSET, sensor_x: float | None = None, cache=None,
-               progress=None, **options) -> en15461.DecayRateResult:
+               progress=None, force: str | None = None,
+               **options) -> en15461.DecayRateResult:
     """EN 15461 track decay rate of ``spec`` per one-third-octave band (arrays, no files).
 
     frequency: narrow-band frequencies (Hz, 1/9 octave or finer, e.g.
-    iec61260.ninth_octave_grid). output: the sensor, 'head' or 'foot'. positions: hammer
+    iec61260.ninth_octave_grid). output: the sensor, 'head' or 'foot' (vertical hammer on
+    the head top) or 'head_lateral' (lateral hammer and sensor on the side of the head,
+    HEAD_SIDE_DEPTH below its top; ``force`` overrides the hammer channel). positions: hammer
     positions relative to the sensor (m), default the standard's 29 for the spacing;
     position 0 is the point FRF, realised with the hammer ``offset`` m (default 0.02) from
     the sensor, which sits at ``sensor_x`` (default mid-span). options go to
     en15461.decay_rate (threshold_db, attenuation_range, ...)."""
     xs, pos, hx = hammer_x(spec, positions, offset, sensor_x)
-    a = receptance(spec, frequency, hx, [xs], outputs=(output,), cache=cache,
+    if force is None:
+        force = "head_lateral" if output in LATERAL else "head"
+    a = receptance(spec, frequency, hx, [xs], outputs=(output,), force=force, cache=cache,
                    progress=progress)
     f = _frequency(frequency)
     return en15461.decay_rate(f, 2j * np.pi * f[:, None] * a[:, 0, 0, :], pos, **options)

@@ -36,6 +36,14 @@ PARAMETERS = {
     "eta_b": ("-", True, (1e-3, 5.0)),
     "eta_r": ("-", True, (1e-4, 0.5)),
     "pad_length": ("m", False, (0.0, 0.4)),
+    # horizontal support (railfem.supports.SupportParameters, issue 15)
+    "kp_lat": ("N/m", True, (1e5, 1e10)),
+    "eta_p_lat": ("-", True, (1e-3, 2.0)),
+    "kp_long": ("N/m", True, (1e5, 1e10)),
+    "eta_p_long": ("-", True, (1e-3, 2.0)),
+    "kb_lat": ("N/m", True, (1e5, 1e10)),
+    "eta_b_lat": ("-", True, (1e-3, 5.0)),
+    "ms_lat": ("kg", True, (10.0, 1000.0)),
 }
 DEVIATION_FIELDS = ("kp", "eta_p", "ms", "kb", "eta_b")
 DEVIATION_BOUNDS = (1e-3, 1e3)  # factors

@@ -19,7 +19,8 @@ from dataclasses import asdict, dataclass, field, fields, replace
 
 from . import validators as v
 from .materials import Material
-from .supports import PRESETS, SupportLayout, SupportParameters, preset as table1_preset
+from .supports import HORIZONTAL_FIELDS, PRESETS, SupportLayout, SupportParameters
+from .supports import DIRECTIONS as SUPPORT_DIRECTIONS, preset as table1_preset
 from .supports import uniform_layout
 
 MODELS = ("wfe-discrete", "wfe-periodic", "wfe-continuous", "timoshenko-discrete",
@@ -92,8 +93,17 @@ class SupportDeviation:
             v.non_negative(f"SupportDeviation.{name}", getattr(self, name), "(factor)")
 
     def apply(self, p: SupportParameters) -> SupportParameters:
+        """p with the factors applied; each also scales its horizontal counterparts (a
+        pad's factor its lateral and longitudinal pad, the ballast's factor the sleeper's
+        horizontal ballast support: a voided sleeper is voided in every direction)."""
+        def f(value, factor):  # 0 * inf is an absent element, not NaN
+            return 0.0 if factor == 0 else value * factor
         return replace(p, kp=p.kp * self.kp, eta_p=p.eta_p * self.eta_p, ms=p.ms * self.ms,
-                       kb=p.kb * self.kb, eta_b=p.eta_b * self.eta_b)  # keeps pad laws
+                       kb=p.kb * self.kb, eta_b=p.eta_b * self.eta_b,
+                       kp_lat=f(p.kp_lat, self.kp), kp_long=f(p.kp_long, self.kp),
+                       eta_p_lat=p.eta_p_lat * self.eta_p,
+                       eta_p_long=p.eta_p_long * self.eta_p, ms_lat=p.ms_lat * self.ms,
+                       kb_lat=f(p.kb_lat, self.kb), eta_b_lat=p.eta_b_lat * self.eta_b)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -141,6 +151,10 @@ class TrackSpec:
     not used by the continuous models (they spread the support uniformly). n_rows: spring
     rows per pad (-). n_supports: supports of the discrete models (-). deviations: supports
     of the discrete models that differ (SupportDeviation). numerics: Numerics.
+    support_directions: the directions the supports act in, 'z' (vertical springs only:
+    the published model, the default) or with 'y' (lateral pads, SupportParameters.kp_lat)
+    and/or 'x' (longitudinal pads, kp_long), e.g. 'zyx'; lateral loads and responses need
+    'y'. Written in the canonical order z, y, x.
     """
 
     name: str = "custom"
@@ -153,9 +167,22 @@ class TrackSpec:
     n_supports: int = 131
     deviations: tuple[SupportDeviation, ...] = ()
     numerics: Numerics = field(default_factory=Numerics)
+    support_directions: str = "z"
 
     def __post_init__(self):
         v.one_of("TrackSpec.model", self.model, MODELS)
+        dirs = self.support_directions
+        if (not isinstance(dirs, str) or "z" not in dirs or len(set(dirs)) != len(dirs)
+                or not set(dirs) <= set(SUPPORT_DIRECTIONS)):
+            raise ValueError(f"TrackSpec.support_directions = {dirs!r}: give 'z' with "
+                             "optionally 'y' (lateral) and 'x' (longitudinal), e.g. 'z' or "
+                             "'zyx'")
+        object.__setattr__(self, "support_directions",
+                           "".join(d for d in SUPPORT_DIRECTIONS if d in dirs))
+        if len(self.support_directions) > 1 and self.model.startswith("timoshenko"):
+            raise ValueError(f"TrackSpec.support_directions = {dirs!r} with model "
+                             f"{self.model!r}: the Timoshenko models are vertical beams; use "
+                             "a WFE model (or beams.lateral_* for the lateral beam)")
         if not isinstance(self.support, SupportParameters):
             raise TypeError(f"TrackSpec.support must be SupportParameters, got "
                             f"{type(self.support).__name__}")
@@ -214,8 +241,10 @@ class TrackSpec:
 
     def replace(self, **changes) -> "TrackSpec":
         """A copy with fields changed; also takes the support parameters kp, eta_p, ms, kb,
-        eta_b (SI) and eta_r (the rail loss factor)."""
-        sup = {k: changes.pop(k) for k in ("kp", "eta_p", "ms", "kb", "eta_b") if k in changes}
+        eta_b and the horizontal ones (kp_lat, ..., supports.HORIZONTAL_FIELDS) in SI, and
+        eta_r (the rail loss factor)."""
+        sup = {k: changes.pop(k) for k in ("kp", "eta_p", "ms", "kb", "eta_b")
+               + HORIZONTAL_FIELDS if k in changes}
         if sup:
             changes["support"] = replace(changes.get("support", self.support), **sup)
         if "eta_r" in changes:
@@ -266,9 +295,11 @@ UNITS = {
 SCHEMA = {
     "": {"preset": "str", "name": "str", "model": "str"},
     "support": {"kp": "stiffness", "eta_p": "number", "ms": "mass", "kb": "stiffness",
-                "eta_b": "number"},
+                "eta_b": "number", "kp_lat": "stiffness", "eta_p_lat": "number",
+                "kp_long": "stiffness", "eta_p_long": "number", "kb_lat": "stiffness",
+                "eta_b_lat": "number", "ms_lat": "mass"},
     "track": {"spacing": "length", "pad_length": "length", "n_rows": "int",
-              "n_supports": "int"},
+              "n_supports": "int", "support_directions": "str"},
     "rail": {"profile": "str", "h": "length", "mesh_file": "str", "E": "pressure",
              "nu": "number", "rho": "density", "eta": "number", "beam_constants": "str"},
     "numerics": {"n_foot_springs": "int", "foot_rule": "str", "n_waves": "int", "tail": "bool",
@@ -376,7 +407,8 @@ def spec_to_dict(spec: TrackSpec) -> dict:
         "name": spec.name, "model": spec.model,
         "support": support_to_dict(spec.support),
         "track": {"spacing": spec.spacing, "pad_length": spec.pad_length,
-                  "n_rows": spec.n_rows, "n_supports": spec.n_supports},
+                  "n_rows": spec.n_rows, "n_supports": spec.n_supports,
+                  "support_directions": spec.support_directions},
         "rail": rail, "numerics": asdict(spec.numerics),
         "deviations": [asdict(d) for d in spec.deviations],
     }

@@ -141,6 +141,17 @@ class SupportParameters:
     pad_laws: frequency-dependent pad terms applied in turn to kp* (FractionalZener,
         FootDashpot); default none (the frequency-independent pad of METHOD.md section 2).
     absorber: a RailAbsorber acting in parallel with the support, or None.
+
+    Horizontal chains (used where the track's ``support_directions`` include y or x;
+    railfem.spec.TrackSpec): the same pad - sleeper - ballast series in each direction,
+    ``directional_stiffness``.
+    kp_lat, eta_p_lat: lateral (y) pad stiffness per fastener (N/m) and loss factor (-);
+        0 = no lateral restraint by the pad (the default: a vertical-only support).
+    kp_long, eta_p_long: longitudinal (x) pad stiffness per fastener (N/m), loss factor.
+    kb_lat, eta_b_lat: horizontal stiffness of the sleeper in the ballast per rail (N/m)
+        and its loss factor, used laterally and longitudinally; inf (default) = the sleeper
+        does not move horizontally.
+    ms_lat: sleeper mass per rail moving horizontally with the rail (kg).
     """
 
     kp: float
@@ -150,12 +161,27 @@ class SupportParameters:
     eta_b: float = 0.0
     pad_laws: tuple = ()
     absorber: RailAbsorber | None = None
+    kp_lat: float = 0.0
+    eta_p_lat: float = 0.0
+    kp_long: float = 0.0
+    eta_p_long: float = 0.0
+    kb_lat: float = math.inf
+    eta_b_lat: float = 0.0
+    ms_lat: float = DEFAULT_SLEEPER_MASS
 
     def __post_init__(self):
         _check_stiffness("kp", self.kp)
         _check_stiffness("kb", self.kb)
         _check_loss_factor("eta_p", self.eta_p)
         _check_loss_factor("eta_b", self.eta_b)
+        for name in HORIZONTAL_STIFFNESS:
+            _check_stiffness(name, getattr(self, name))
+        for name in HORIZONTAL_LOSS:
+            _check_loss_factor(name, getattr(self, name))
+        if not np.isfinite(self.ms_lat) or self.ms_lat < 0:
+            raise ValueError(
+                f"SupportParameters.ms_lat = {self.ms_lat!r} kg is not allowed: use a finite "
+                f"sleeper mass >= 0 kg per rail")
         if not np.isfinite(self.ms) or self.ms < 0:
             raise ValueError(
                 f"SupportParameters.ms = {self.ms!r} kg is not allowed: use a finite sleeper "
@@ -191,7 +217,43 @@ class SupportParameters:
         if absorber is not None:  # the pad laws are relative to kp; the absorber's mass is not
             absorber = None if weight == 0 else replace(absorber, mass=absorber.mass * weight)
         return replace(self, kp=scale(self.kp), ms=scale(self.ms), kb=scale(self.kb),
-                       absorber=absorber)
+                       absorber=absorber,
+                       **{n: scale(getattr(self, n)) for n in HORIZONTAL_SCALED})
+
+
+#: The horizontal fields of SupportParameters (additive to the vertical ones).
+HORIZONTAL_STIFFNESS = ("kp_lat", "kp_long", "kb_lat")
+HORIZONTAL_LOSS = ("eta_p_lat", "eta_p_long", "eta_b_lat")
+HORIZONTAL_SCALED = ("kp_lat", "kp_long", "kb_lat", "ms_lat")
+HORIZONTAL_FIELDS = ("kp_lat", "eta_p_lat", "kp_long", "eta_p_long", "kb_lat", "eta_b_lat",
+                     "ms_lat")
+#: Directions a support acts in: u_z (vertical), u_y (lateral), u_x (longitudinal).
+DIRECTIONS = ("z", "y", "x")
+
+
+def chain(params: SupportParameters, direction: str = "z") -> SupportParameters:
+    """The pad - sleeper - ballast chain acting in ``direction`` as vertical-form
+    SupportParameters (kp, eta_p, ms, kb, eta_b): 'z' is params itself; 'y' the lateral pad
+    on the sleeper's horizontal ballast support; 'x' the longitudinal pad on the same."""
+    if direction == "z":
+        return params
+    if direction not in DIRECTIONS:
+        raise ValueError(f"support direction {direction!r}: use one of {', '.join(DIRECTIONS)}")
+    kp, eta = ((params.kp_lat, params.eta_p_lat) if direction == "y"
+               else (params.kp_long, params.eta_p_long))
+    return SupportParameters(kp=kp, eta_p=eta, ms=params.ms_lat, kb=params.kb_lat,
+                             eta_b=params.eta_b_lat)
+
+
+def directional_stiffness(params: SupportParameters, omega, direction: str = "z"):
+    """Dynamic stiffness (N/m, complex, shape of omega) of one support in ``direction``
+    ('z', 'y' or 'x'): ``dynamic_stiffness`` of ``chain(params, direction)``."""
+    return dynamic_stiffness(chain(params, direction), omega)
+
+
+def acts_in(params: SupportParameters, direction: str) -> bool:
+    """Whether the support has a pad in ``direction`` (the vertical one always counts)."""
+    return direction == "z" or (params.kp_lat if direction == "y" else params.kp_long) > 0
 
 
 def _complex_stiffness(k: float, eta: float) -> complex:
@@ -288,11 +350,29 @@ class TrackPreset:
             raise ValueError(f"TrackPreset.spacing = {self.spacing!r} m: use a spacing > 0 m")
 
 
+#: Horizontal support of the presets relative to their vertical values (docs/presets.md
+#: gives the sources and what is assumed): lateral and longitudinal pad stiffness a
+#: seventh of the vertical (the middle of the 1/5-1/10 range quoted for rail fasteners,
+#: Thompson, Railway Noise and Vibration, 2009, ch. 3), with the vertical pad's loss
+#: factor; the sleeper's horizontal ballast support half the vertical ballast stiffness
+#: with its loss factor; the per-rail sleeper mass moves laterally with the rail.
+HORIZONTAL_RATIOS = {"pad": 1 / 7, "ballast": 1 / 2}
+
+
+def horizontal_support(kp: float, eta_p: float, kb: float, eta_b: float,
+                       ms: float = DEFAULT_SLEEPER_MASS) -> dict:
+    """The preset rule for the horizontal fields from the vertical ones (HORIZONTAL_RATIOS)."""
+    r = HORIZONTAL_RATIOS
+    return dict(kp_lat=kp * r["pad"], eta_p_lat=eta_p, kp_long=kp * r["pad"],
+                eta_p_long=eta_p, kb_lat=kb * r["ballast"], eta_b_lat=eta_b, ms_lat=ms)
+
+
 def _table1(name, kp_mn, eta_p, kb_mn, eta_b, eta_r, description):
+    kp, kb = kp_mn * 1e6, kb_mn * 1e6
     return TrackPreset(
         name=name,
-        support=SupportParameters(kp=kp_mn * 1e6, eta_p=eta_p, ms=DEFAULT_SLEEPER_MASS,
-                                  kb=kb_mn * 1e6, eta_b=eta_b),
+        support=SupportParameters(kp=kp, eta_p=eta_p, ms=DEFAULT_SLEEPER_MASS, kb=kb,
+                                  eta_b=eta_b, **horizontal_support(kp, eta_p, kb, eta_b)),
         eta_r=eta_r, description=description)
 
 
@@ -405,10 +485,12 @@ class SupportLayout:
         idx = np.repeat(np.arange(len(self)), n)
         return SpringSet(x=x, weight=np.full(x.shape, 1.0 / n), support_index=idx)
 
-    def spring_stiffness(self, omega) -> np.ndarray:
-        """Dynamic stiffness of every spring, shape (n_freq, n_springs) (N/m, complex)."""
+    def spring_stiffness(self, omega, direction: str = "z") -> np.ndarray:
+        """Dynamic stiffness of every spring, shape (n_freq, n_springs) (N/m, complex), in
+        ``direction`` ('z' vertical, 'y' lateral, 'x' longitudinal)."""
         w = np.atleast_1d(_as_omega(omega))
-        per_support = np.stack([dynamic_stiffness(p, w) for p in self.params], axis=-1)
+        per_support = np.stack([directional_stiffness(p, w, direction) if direction != "z"
+                                else dynamic_stiffness(p, w) for p in self.params], axis=-1)
         s = self.springs()
         per_spring = per_support[:, s.support_index]
         # complex inf * weight would give inf + nan j: a rigid support stays rigid when split
@@ -477,4 +559,5 @@ __all__ = [
     "FractionalZener", "FootDashpot", "RailAbsorber", "SupportParameters", "dynamic_stiffness", "support_receptance", "continuous_stiffness",
     "TrackPreset", "PRESETS", "preset", "SpringSet", "SupportLayout", "uniform_layout",
     "with_support", "foot_spring_weights", "DEFAULT_SPACING", "DEFAULT_SLEEPER_MASS",
+    "DIRECTIONS", "HORIZONTAL_FIELDS", "chain", "directional_stiffness", "acts_in",
 ]

@@ -33,7 +33,7 @@ solve with the supports' K(omega) (railfem.coupling); the ``*_receptance`` funct
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
@@ -41,7 +41,7 @@ import scipy.sparse as sp
 from .coupling import (DiscreteKernel, PeriodicKernel, couple_discrete, couple_periodic,
                        theta_mean, unique_separations)
 from .mobility import FamilyResponse, Location, _kernels, combine, residue_sum, wave_sum
-from .supports import SupportLayout, dynamic_stiffness
+from .supports import SupportLayout, directional_stiffness, dynamic_stiffness
 from .waveguide import Waveguide
 from .waves import FamilyOperators, frozen_tail, join, waves_at
 
@@ -52,45 +52,110 @@ DEFAULT_N_FOOT_SPRINGS = 8  # METHOD.md section 2
 DEFAULT_N_THETA = 512  # Floquet angles; see tests/test_track.py for the convergence check
 
 
+#: A load excites a family when its projection on it exceeds this fraction of its largest
+#: projection; a spring column is kept when its projection on an excited family does.
+#: Mirror images computed in floating point leave round-off (1e-17 .. 1e-15) on the other
+#: family, which is not an excitation.
+FAMILY_TOL = 1e-9
+COMPONENT = {"x": 0, "y": 1, "z": 2}
+
+
 @dataclass(frozen=True, kw_only=True)
 class FootSprings:
-    """Spring pairs across the rail-foot underside.
+    """Springs across the rail-foot underside as generalised columns.
 
-    pairs: one Location per mirror pair (weights 1/2 on each node's vertical DOF, so the
-    pair's generalised force is the pair's total force and its displacement the nodes'
-    mean). weight: (n_pairs,) share of the support carried by each pair (sums to 1).
-    y: (n_pairs,) |y| of the pair's nodes (m).
+    pairs: one Location per mirror pair of vertical springs, their sum (weights 1/2 on each
+    spring's vertical DOFs, so the pair's generalised force is the pair's total force and
+    its displacement the springs' mean): what a vertical load on the mirror plane loads.
+    weight: (n_pairs,) share of the support carried by each pair (sums to 1).
+    y: (n_pairs,) |y| of the pair's springs (m).
+
+    others: further columns, each the sum or the difference (1/2 (w_a - w_b)) of a mirror
+    pair in one direction; other_weight their shares, other_direction 'z', 'y' or 'x'.
+    Two equal independent springs a, b are exactly the sum and difference columns, each
+    with the pair's stiffness (F_a = K u_a, F_b = K u_b gives F_s = 2K u_s, F_d = 2K u_d
+    with u_s, u_d the mean and half difference): no coupling between them. Each column lies
+    in one symmetry family: vertical and longitudinal sums and the lateral difference in
+    the symmetric family, the others in the antisymmetric one.
     """
 
     pairs: tuple[Location, ...]
     weight: np.ndarray
     y: np.ndarray
+    others: tuple[Location, ...] = ()
+    other_weight: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    other_direction: tuple[str, ...] = ()
+
+    @property
+    def directions(self) -> str:
+        """The directions the springs act in, canonical order z, y, x."""
+        return "".join(d for d in "zyx" if d == "z" or d in self.other_direction)
 
 
 def foot_springs(guide: Waveguide, n_f: int = DEFAULT_N_FOOT_SPRINGS, *,
-                 rule: str = "nodes") -> FootSprings:
+                 rule: str = "nodes", directions: str = "z") -> FootSprings:
     """n_f springs of a support across the rail-foot underside, grouped in mirror pairs
     (railfem.footprints): ``rule="nodes"`` at the nodes nearest to equal strips, weighted by
     tributary width (METHOD.md section 2, the published configuration); ``"midpoint"`` at
     the strip centres through the P2 edge shape functions (the distributed bed).
+    directions: 'z' or with 'y' (lateral) and 'x' (longitudinal): each spring position
+    carries one spring per direction, on the same footprint.
     A FootSprings passed as n_f is returned as it is, so the models take any footprint."""
-    from .footprints import width_points
+    from .footprints import spring_reads, width_points
 
     if isinstance(n_f, FootSprings):
         return n_f
+    if "z" not in directions or not set(directions) <= set("zyx"):
+        raise ValueError(f"spring directions = {directions!r}: give 'z' with optionally 'y' "
+                         "(lateral) and 'x' (longitudinal), e.g. 'zyx'")
     wp = width_points(guide, n_f, rule)
-    return FootSprings(pairs=wp.pairs, weight=wp.share, y=wp.y)
+    others, weight, direction = [], [], []
+    for d in "zyx":
+        if d not in directions:
+            continue
+        reads, _, share = spring_reads(guide, n_f, rule, COMPONENT[d])
+        for i in range(n_f // 2 + n_f % 2):
+            a, b = i, n_f - 1 - i
+            pair_share = share[a] + (share[b] if b != a else 0.0)
+            parts = [("-", 0.5 * (reads[a] - reads[b]))] if b != a else []
+            if d != "z":  # the vertical sums are ``pairs``
+                parts.insert(0, ("+", 0.5 * (reads[a] + reads[b])))
+            for sign, w in parts:
+                others.append(Location(label=f"foot_spring_{i}_{d}{sign}", weights=w))
+                weight.append(pair_share)
+                direction.append(d)
+    return FootSprings(pairs=wp.pairs, weight=wp.share, y=wp.y, others=tuple(others),
+                       other_weight=np.array(weight), other_direction=tuple(direction))
 
 
-def _check_symmetric(guide: Waveguide, locs) -> None:
-    if set(guide.families) != {"symmetric", "antisymmetric"}:
-        raise ValueError(f"the supported-track models need a mirror-symmetric section mesh; "
-                         f"{guide.mesh.name} is not (one wave family {list(guide.families)})")
-    T = guide.families["antisymmetric"].T
-    for loc in locs:
-        if np.abs(T.T @ loc.weights).max() > 1e-12 * np.abs(loc.weights).max():
-            raise ValueError(f"load {loc.label!r} is not symmetric about the web axis; the "
-                             "supported-track models take vertical loads on the mirror plane")
+def excited_families(guide: Waveguide, loads) -> list[str]:
+    """The families of ``guide`` on which any of the loads (Locations) has a component
+    (FAMILY_TOL): a vertical load on the mirror plane excites the symmetric family only,
+    a lateral or off-centre load both."""
+    out = []
+    for loc in loads:
+        proj = {f: np.abs(guide.families[f].T.T @ loc.weights).max() for f in guide.families}
+        top = max(proj.values())
+        out += [f for f, v in proj.items() if v > FAMILY_TOL * top and f not in out]
+    return [f for f in guide.families if f in out]
+
+
+def spring_columns(guide: Waveguide, springs: FootSprings, families) -> tuple:
+    """(locations, shares, direction codes 0/1/2 = x/y/z) of the spring columns with a
+    component on one of ``families``: the vertical sums first, in their order (a vertical
+    load on the mirror plane keeps exactly those), then the others."""
+    locs = list(springs.pairs) + list(springs.others)
+    share = np.concatenate([np.asarray(springs.weight, dtype=float),
+                            np.asarray(springs.other_weight, dtype=float)])
+    code = np.array([2] * len(springs.pairs)
+                    + [COMPONENT[d] for d in springs.other_direction], dtype=np.int64)
+    keep = []
+    for j, loc in enumerate(locs):
+        top = np.abs(loc.weights).max()
+        if any(np.abs(guide.families[f].T.T @ loc.weights).max() > FAMILY_TOL * top
+               for f in families):
+            keep.append(j)
+    return [locs[j] for j in keep], share[keep], code[keep]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -135,20 +200,15 @@ def _axes(frequency, force_x, response_x):
 
 
 def _projection_sweep(guide: Waveguide, W: np.ndarray, f: np.ndarray, n_waves: int,
-                      tail: bool, forces: np.ndarray):
-    """Per frequency, a list over the active families of (k, X, Xm, denom); the frozen
-    near-field tail (waves.frozen_tail) is projected once and appended at each frequency.
-    A family is active when a force column (springs or loads, ``forces``) has a component
-    on it: a family no force excites adds nothing (e.g. the antisymmetric part of an
-    off-centre vertical sensor under vertical loads and spring pairs)."""
+                      tail: bool, families):
+    """Per frequency, a list over ``families`` (those the loads excite, excited_families)
+    of (k, X, Xm, denom); the frozen near-field tail (waves.frozen_tail) is projected once
+    and appended at each frequency. A family no load excites adds nothing (the supports
+    are mirror-symmetric), e.g. the antisymmetric part of an off-centre vertical sensor
+    under a vertical load on the mirror plane."""
     fams = []
-    scale = np.abs(W[:, forces]).max(initial=0.0)
-    for fam in guide.families:
+    for fam in families:
         Wr = np.asarray(guide.families[fam].T.T @ W)
-        # round-off of mirror pairs on a curved mesh leaves ~1e-15 in the other family:
-        # that is no excitation, and solving that family would double the work
-        if not np.abs(Wr[:, forces]).max(initial=0.0) > 1e-9 * scale:
-            continue
         comp = guide.families[fam].component
         Wm = np.where(comp == 0, -1.0, 1.0)[:, None] * Wr
         ops = FamilyOperators(guide, fam)
@@ -178,11 +238,26 @@ def _green(sets, o, i, x, Lf, Lr) -> np.ndarray:
     return sum(residue_sum(_terms(p, o, i), p[0], x, Lf, Lr) for p in sets)
 
 
-def _columns(springs: FootSprings, load: Location, outputs: list[Location]):
-    W = np.column_stack([p.weights for p in springs.pairs] + [load.weights]
+def _columns(guide: Waveguide, springs: FootSprings, load: Location,
+             outputs: list[Location]):
+    """(W, spring cols, load col, output cols, families, spring shares, spring directions)
+    of a problem: the families the load excites and the spring columns on them."""
+    families = excited_families(guide, [load])
+    cols, share, code = spring_columns(guide, springs, families)
+    W = np.column_stack([c.weights for c in cols] + [load.weights]
                         + [o.weights for o in outputs])
-    n_p = len(springs.pairs)
-    return W, np.arange(n_p), np.array([n_p]), n_p + 1 + np.arange(len(outputs))
+    n_p = len(cols)
+    return (W, np.arange(n_p), np.array([n_p]), n_p + 1 + np.arange(len(outputs)), families,
+            share, code)
+
+
+def spring_stiffness(layout: SupportLayout, omega, kernel) -> np.ndarray:
+    """The coupling's spring-set stiffness for ``kernel``'s springs: (nf, n_sets) vertical
+    when all its springs are vertical, else (nf, n_sets, 3) in the directions x, y, z
+    (railfem.coupling)."""
+    if np.all(np.asarray(kernel.spring_direction) == 2):
+        return layout.spring_stiffness(omega)
+    return np.stack([layout.spring_stiffness(omega, d) for d in "xyz"], axis=-1)
 
 
 # ------------------------------------------------------------------ discrete supports
@@ -201,8 +276,7 @@ def discrete_kernel(guide: Waveguide, springs: FootSprings, spring_x, frequency,
     load_length / response_length: the same for the load and the outputs."""
     f, fx, rx = _axes(frequency, force_x, response_x)
     xs = np.atleast_1d(np.asarray(spring_x, dtype=float))
-    _check_symmetric(guide, [load])
-    W, S, P, R = _columns(springs, load, outputs)
+    W, S, P, R, families, share, code = _columns(guide, springs, load, outputs)
     u_ss, i_ss = unique_separations(xs[:, None] - xs[None, :])
     u_sP, i_sP = unique_separations(xs[:, None] - fx[None, :])
     u_rs, i_rs = unique_separations(rx[:, None] - xs[None, :])
@@ -213,15 +287,14 @@ def discrete_kernel(guide: Waveguide, springs: FootSprings, spring_x, frequency,
     rs = np.empty((nf, len(u_rs), n_o, n_p), dtype=complex)
     rP = np.empty((nf, len(u_rP), n_o), dtype=complex)
     Ls = spring_length
-    for i, sets in enumerate(_projection_sweep(guide, W, f, n_waves, tail,
-                                                   np.concatenate([S, P]))):
+    for i, sets in enumerate(_projection_sweep(guide, W, f, n_waves, tail, families)):
         ss[i] = _green(sets, S, S, u_ss, Ls, Ls).transpose(1, 0, 2)
         sP[i] = _green(sets, S, P, u_sP, load_length, Ls)[..., 0].T
         rs[i] = _green(sets, R, S, u_rs, Ls, response_length).transpose(1, 0, 2)
         rP[i] = _green(sets, R, P, u_rP, load_length, response_length)[..., 0].T
         if progress:
             progress(i + 1, nf)
-    return DiscreteKernel(frequency=f, spring_weight=np.asarray(springs.weight, dtype=float),
+    return DiscreteKernel(frequency=f, spring_weight=share, spring_direction=code,
                           spring_x=xs, ss=ss, ss_sep=u_ss, ss_index=i_ss, sP=sP,
                           sP_index=i_sP, rs=rs, rs_index=i_rs,
                           rP=rP, rP_index=i_rP)
@@ -231,21 +304,24 @@ def discrete_receptance(guide: Waveguide, layout: SupportLayout, frequency, *, l
                         outputs: list[Location], force_x, response_x,
                         n_f: int = DEFAULT_N_FOOT_SPRINGS, load_length: float = 0.02,
                         response_length: float = 0.0, n_waves: int = 40, tail: bool = True,
-                        progress=None) -> TrackResponse:
+                        directions: str = "z", progress=None) -> TrackResponse:
     """WFE rail on the discrete supports of ``layout`` (each support may differ):
     ``discrete_kernel`` then ``coupling.couple_discrete``.
 
     The load is spread over load_length along the rail, outputs are averaged over
     response_length (equal lengths make the result reciprocal in load and output). The
     supports are taken exactly as laid out: keep loads and responses well inside them
-    (``railfem.models`` re-centres a uniform layout on each load-response pair)."""
-    kernel = discrete_kernel(guide, foot_springs(guide, n_f), layout.springs().x, frequency,
+    (``railfem.models`` re-centres a uniform layout on each load-response pair).
+    directions: the directions the supports act in ('z', or with 'y' and 'x', see
+    foot_springs; a FootSprings given as n_f brings its own)."""
+    springs = foot_springs(guide, n_f, directions=directions)
+    kernel = discrete_kernel(guide, springs, layout.springs().x, frequency,
                              load=load, outputs=outputs, force_x=force_x,
                              response_x=response_x, spring_length=layout.row_length,
                              load_length=load_length, response_length=response_length,
                              n_waves=n_waves, tail=tail, progress=progress)
     f = kernel.frequency
-    out = couple_discrete(kernel, layout.spring_stiffness(2 * np.pi * f))
+    out = couple_discrete(kernel, spring_stiffness(layout, 2 * np.pi * f, kernel))
     _, fx, rx = _axes(f, force_x, response_x)
     return TrackResponse(frequency=f, receptance=out, outputs=tuple(o.label for o in outputs),
                          response_x=rx, force_x=fx)
@@ -312,10 +388,9 @@ def periodic_kernel(guide: Waveguide, springs: FootSprings, row_offsets, spacing
     f, fx, rx = _axes(frequency, force_x, response_x)
     if int(n_theta) != n_theta or n_theta < 16:
         raise ValueError(f"n_theta = {n_theta!r}: use an integer >= 16 Floquet angles")
-    _check_symmetric(guide, [load])
     o = np.atleast_1d(np.asarray(row_offsets, dtype=float))
     d = float(spacing)
-    W, S, P, R = _columns(springs, load, outputs)
+    W, S, P, R, families, share, code = _columns(guide, springs, load, outputs)
     n_r, n_p, n_o, nf = len(o), len(S), len(R), len(f)
     theta = -np.pi + 2 * np.pi * np.arange(n_theta) / n_theta
     dss = (o[:, None] - o[None, :]).ravel()
@@ -331,8 +406,7 @@ def periodic_kernel(guide: Waveguide, springs: FootSprings, row_offsets, spacing
     direct = np.empty((nf, n_o, len(rx), len(fx)), dtype=complex)
     Ls = spring_length
     m_ss, r_ss = _reduce(dss, d)
-    for i, sets in enumerate(_projection_sweep(guide, W, f, n_waves, tail,
-                                                   np.concatenate([S, P]))):
+    for i, sets in enumerate(_projection_sweep(guide, W, f, n_waves, tail, families)):
         L = _lattice(sets, S, S, r_ss, d, theta, Ls, Ls)
         L = L * np.exp(1j * np.outer(theta, m_ss))[:, None, :, None]  # (t, p, r r', p')
         ss[i] = L.reshape(n_theta, n_p, n_r, n_r, n_p).transpose(0, 2, 1, 3, 4).reshape(
@@ -344,8 +418,8 @@ def periodic_kernel(guide: Waveguide, springs: FootSprings, row_offsets, spacing
         direct[i] = Lm[inv, :, i_rP].transpose(2, 0, 1)
         if progress:
             progress(i + 1, nf)
-    return PeriodicKernel(frequency=f, theta=theta,
-                          spring_weight=np.asarray(springs.weight, dtype=float), ss=ss,
+    return PeriodicKernel(frequency=f, theta=theta, spring_weight=share,
+                          spring_direction=code, ss=ss,
                           sP=sP, sP_u=i_sP, sP_m=m_sP, rs=rs, rs_u=i_rs, rs_m=m_rs,
                           direct=direct)
 
@@ -354,27 +428,30 @@ def periodic_receptance(guide: Waveguide, params, spacing: float, frequency, *, 
                         outputs: list[Location], force_x, response_x, pad_length: float = 0.0,
                         n_rows: int = 1, n_f: int = DEFAULT_N_FOOT_SPRINGS,
                         load_length: float = 0.02, n_theta: int = DEFAULT_N_THETA,
-                        n_waves: int = 40, tail: bool = True, progress=None) -> TrackResponse:
+                        n_waves: int = 40, tail: bool = True, directions: str = "z",
+                        progress=None) -> TrackResponse:
     """WFE rail on infinitely many identical supports at x = n * spacing (Floquet):
     ``periodic_kernel`` then ``coupling.couple_periodic``."""
     from .supports import uniform_layout
 
     cell = uniform_layout(params, spacing, n=1, pad_length=pad_length, n_rows=n_rows)
-    kernel = periodic_kernel(guide, foot_springs(guide, n_f), cell.springs().x, spacing,
+    kernel = periodic_kernel(guide, foot_springs(guide, n_f, directions=directions),
+                             cell.springs().x, spacing,
                              frequency, load=load, outputs=outputs, force_x=force_x,
                              response_x=response_x, spring_length=cell.row_length,
                              load_length=load_length, n_theta=n_theta, n_waves=n_waves,
                              tail=tail, progress=progress)
     f = kernel.frequency
-    out = couple_periodic(kernel, cell.spring_stiffness(2 * np.pi * f))
+    out = couple_periodic(kernel, spring_stiffness(cell, 2 * np.pi * f, kernel))
     _, fx, rx = _axes(f, force_x, response_x)
     return TrackResponse(frequency=f, receptance=out, outputs=tuple(o.label for o in outputs),
                          response_x=rx, force_x=fx)
 
 
-def foot_bed(guide: Waveguide) -> sp.csr_matrix:
-    """Diagonal (row-sum lumped) distribution of a unit vertical foundation stiffness over the
-    rail-foot underside: consistent P2 edge weights by lateral width, summing to 1."""
+def foot_bed(guide: Waveguide, component: int = 2) -> sp.csr_matrix:
+    """Diagonal (row-sum lumped) distribution of a unit foundation stiffness over the
+    rail-foot underside: consistent P2 edge weights by lateral width, summing to 1, on the
+    DOFs of ``component`` (2 = u_z, the vertical bed; 1 = u_y lateral, 0 = u_x)."""
     from .mobility import _boundary_edges
 
     under = guide.node_sets.get("foot_underside", np.array([], dtype=int))
@@ -386,17 +463,25 @@ def foot_bed(guide: Waveguide) -> sp.csr_matrix:
     width = np.abs(guide.nodes[ed[:, 0], 0] - guide.nodes[ed[:, 1], 0])
     diag = np.zeros(guide.n_dofs)
     for nodes, share in zip(ed, width):
-        diag[guide.node_dofs[nodes, 2]] += share * np.array([1 / 6, 1 / 6, 2 / 3])
+        diag[guide.node_dofs[nodes, component]] += share * np.array([1 / 6, 1 / 6, 2 / 3])
     return sp.diags(diag / diag.sum()).tocsr()
 
 
-def supported_operators(guide: Waveguide, params, spacing: float) -> FamilyOperators:
-    """Symmetric-family operators of the rail on the continuous foundation: its waves are
-    the free waves of the continuously supported track."""
-    ops = FamilyOperators(guide, FAMILY)
-    T = guide.families[FAMILY].T
-    bed = (T.T @ foot_bed(guide) @ T).tocsr()[ops.order][:, ops.order]
-    ops.extra = lambda omega: (dynamic_stiffness(params, omega).item() / spacing) * bed
+def supported_operators(guide: Waveguide, params, spacing: float, family: str = FAMILY,
+                        directions: str = "z") -> FamilyOperators:
+    """Operators of one family of the rail on the continuous foundation (in the
+    ``directions`` z, y, x, each direction's chain K_d(omega)/spacing per metre spread over
+    the foot underside): its waves are the free waves of the continuously supported track."""
+    ops = FamilyOperators(guide, family)
+    T = guide.families[family].T
+    beds = [(d, (T.T @ foot_bed(guide, COMPONENT[d]) @ T).tocsr()[ops.order][:, ops.order])
+            for d in "zyx" if d in directions]
+    if len(beds) == 1:
+        bed = beds[0][1]
+        ops.extra = lambda omega: (dynamic_stiffness(params, omega).item() / spacing) * bed
+    else:
+        ops.extra = lambda omega: sum(
+            (directional_stiffness(params, omega, d).item() / spacing) * b for d, b in beds)
     return ops
 
 
@@ -411,19 +496,25 @@ def _wave_sets(ops, f, n_waves, tail):
 def continuous_receptance(guide: Waveguide, params, spacing: float, frequency, *,
                           load: Location, outputs: list[Location], x,
                           load_length: float = 0.02, n_waves: int = 40, tail: bool = True,
-                          progress=None) -> TrackResponse:
+                          directions: str = "z", progress=None) -> TrackResponse:
     """WFE rail on a continuous foundation K_s(omega)/spacing per metre (METHOD.md section 2),
-    spread over the rail-foot underside. x: response positions relative to the load (m)."""
+    spread over the rail-foot underside, acting in ``directions`` ('z', or with 'y' and
+    'x'). x: response positions relative to the load (m). The families the load excites
+    are solved and superposed."""
     f, _, rx = _axes(frequency, [0.0], x)
     if not np.isfinite(spacing) or spacing <= 0:
         raise ValueError(f"spacing = {spacing!r} m: use the sleeper spacing > 0 m")
-    _check_symmetric(guide, [load])
-    ops = supported_operators(guide, params, spacing)
+    foot_bed(guide)  # the foot underside must exist
     R = np.column_stack([o.weights for o in outputs])
-    fr = FamilyResponse(guide, FAMILY, load.weights[:, None], R)
-    out = np.empty((len(f), len(outputs), len(rx), 1), dtype=complex)
-    for i, w in enumerate(_wave_sets(ops, f, n_waves, tail)):
-        out[i] = wave_sum(fr, w, rx, load_length, 0.0)
+    parts = []
+    for fam in excited_families(guide, [load]):
+        ops = supported_operators(guide, params, spacing, fam, directions)
+        fr = FamilyResponse(guide, fam, load.weights[:, None], R)
+        parts.append((fr, _wave_sets(ops, f, n_waves, tail)))
+    out = np.zeros((len(f), len(outputs), len(rx), 1), dtype=complex)
+    for i in range(len(f)):
+        for fr, sets in parts:
+            out[i] += wave_sum(fr, next(sets), rx, load_length, 0.0)
         if progress:
             progress(i + 1, len(f))
     return TrackResponse(frequency=f, receptance=out, outputs=tuple(o.label for o in outputs),

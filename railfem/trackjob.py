@@ -195,6 +195,17 @@ def run_track(spec: TrackSpec, out_dir, *, job: JobSettings | None = None, cache
                               progress=progress or progress_logger(f"track {spec.model}"))
     Y = 1j * 2 * np.pi * f[:, None, None, None] * alpha
     transfer = Y[:, :, 0, : len(pos)]  # (nf, 2, n_pos): sensor response, hammer moves
+    lateral = None
+    if "y" in spec.support_directions:  # lateral hammer and sensor on the side of the head
+        a_lat = models.receptance(spec, f, hammer, [xs], outputs=models.LATERAL,
+                                  force="head_lateral", cache=cache,
+                                  progress=progress or progress_logger(
+                                      f"track {spec.model}, lateral"))
+        lateral = 1j * 2 * np.pi * f[:, None, None] * a_lat[:, :, 0, :]  # (nf, 1, n_pos)
+    else:
+        log.info("track %s: no lateral outputs (support_directions = %r has no 'y'; set "
+                 "support_directions = 'zyx' for the lateral decay rate)", spec.name,
+                 spec.support_directions)
     bs = models.beam_section(spec.rail)
     rail_mass, f_pp = bs.mass_per_length, beams.pinned_pinned_frequency(bs, d)
     marks = resonance_marks(f, transfer[:, 0, 0], spec, rail_mass, f_pp)
@@ -202,7 +213,7 @@ def run_track(spec: TrackSpec, out_dir, *, job: JobSettings | None = None, cache
     marks = resonance_marks(point[0], point[1][:, 0], spec, rail_mass, f_pp)
     paths = _write_outputs(out, spec, f, pos, hammer, xs, transfer,
                            Y[:, :, 1:, len(pos):], span_fx, along_x, job.along_frequencies,
-                           marks, _cut_ons(spec, f), point)
+                           marks, _cut_ons(spec, f), point, lateral)
     mesh = models.rail_mesh(spec.rail)
     summary = {
         "command": "track", "railfem_version": __version__,
@@ -211,6 +222,13 @@ def run_track(spec: TrackSpec, out_dir, *, job: JobSettings | None = None, cache
                  "n_vertices": int(len(mesh.vertices)), "n_triangles": int(len(mesh.triangles))},
         "sensor_x_m": xs, "point_offset_m": POINT_OFFSET,
         "hammer_positions_m": pos.tolist(),
+        "lateral": None if lateral is None else {
+            "channel": "head_lateral",
+            "hammer": f"lateral (+y) force on a {spec.numerics.patch_width * 1e3:g} mm high "
+                      f"patch on the +y side face of the head, centred "
+                      f"{models.HEAD_SIDE_DEPTH * 1e3:g} mm below the head top",
+            "sensor": "lateral (y) response of the side-face node at the patch centre",
+            "rail_pad_peak_hz": float(f[np.argmax(np.abs(lateral[:, 0, 0]))])},
         "frequency_hz": f.tolist(),
         "rail_pad_peak_hz": {o: rail_pad_peak(point[0], point[1][:, j], spec, rail_mass, f_pp)
                              for j, o in enumerate(OUTPUTS)},
@@ -230,7 +248,7 @@ def run_track(spec: TrackSpec, out_dir, *, job: JobSettings | None = None, cache
 
 
 def _write_outputs(out, spec, f, pos, hammer_x, xs, transfer, along, span_fx, along_x,
-                   along_frequencies, marks, cut_on, point) -> dict:
+                   along_frequencies, marks, cut_on, point, lateral=None) -> dict:
     from . import plotting
     from .frf import FRF
     from .frfio import write_frf_csv
@@ -241,9 +259,19 @@ def _write_outputs(out, spec, f, pos, hammer_x, xs, transfer, along, span_fx, al
               response_x=np.full(2, xs), force_x=hammer_x)
     paths["transfer_csv"] = write_frf_csv(out / "transfer_mobility.csv", frf)
     results = [en15461.decay_rate(f, transfer[:, j, :], pos) for j in range(2)]
+    names = ["head", "foot"]
+    if lateral is not None:
+        paths["transfer_lateral_csv"] = write_frf_csv(out / "transfer_mobility_lateral.csv", FRF(
+            frequency=f, values=lateral, quantity="mobility", response=models.LATERAL,
+            force=tuple(f"hammer_lateral_{p:.3f}" for p in pos),
+            response_x=np.full(1, xs), force_x=hammer_x))
+        results.append(en15461.decay_rate(f, lateral[:, 0, :], pos))
+        names.append("head_lateral")
     rows = ["# EN 15461 track decay rate per one-third-octave band (dB/m); suitable = the "
-            "band passes the 10 dB far-field check and D >= D_min",
-            "band_hz,head_db_per_m,head_suitable,foot_db_per_m,foot_suitable"]
+            "band passes the 10 dB far-field check and D >= D_min; head/foot: vertical "
+            "hammer on the head top; head_lateral: lateral hammer and sensor on the side of "
+            "the head (run.json 'lateral')",
+            "band_hz," + ",".join(f"{n}_db_per_m,{n}_suitable" for n in names)]
     for b in range(len(results[0].frequency)):
         rows.append(f"{results[0].frequency[b]:g}," + ",".join(
             f"{r.decay_rate[b]:.4f},{int(r.suitable[b])}" for r in results))
@@ -265,10 +293,17 @@ def _write_outputs(out, spec, f, pos, hammer_x, xs, transfer, along, span_fx, al
                                              marks=marks)
     ax_mag.set_title(title, fontsize="medium")
     paths["mobility_png"] = plotting.save_figure(ax_mag.figure, out / "point_mobility.png")
-    ax = plotting.plot_decay_rate_results(results, [f"{o} sensor" for o in OUTPUTS],
+    ax = plotting.plot_decay_rate_results(results[:2], [f"{o} sensor" for o in OUTPUTS],
                                           direction="vertical", cut_on=cut_on)
     ax.set_title(title, fontsize="medium")
     paths["decay_png"] = plotting.save_figure(ax.figure, out / "decay_rate.png")
+    if lateral is not None:
+        ax = plotting.plot_decay_rate_results(results[2:], ["head side, lateral"],
+                                              direction="lateral")
+        ax.set_title(f"{spec.name} track, {spec.model}: lateral hammer, lateral response",
+                     fontsize="medium")
+        paths["decay_lateral_png"] = plotting.save_figure(ax.figure,
+                                                          out / "decay_rate_lateral.png")
     k_mid = int(np.argmin(np.abs(span_fx - xs)))
     idx = plotting.along_rail_frequencies(f, along_frequencies)
     cols = [20 * np.log10(np.abs(along[i, 0, :, k_mid])) for i in idx]

@@ -164,10 +164,9 @@ def test_bad_inputs(rail):
     with pytest.raises(ValueError, match="rail-foot"):
         track.discrete_receptance(no_foot, lay, [100.0], load=load, outputs=outs,
                                   force_x=[0.0], response_x=[0.0])
-    lateral = mobility.head_patch(g, 0.02, direction="y")
-    with pytest.raises(ValueError, match="symmetric"):
-        track.discrete_receptance(g, lay, [100.0], load=lateral, outputs=outs,
-                                  force_x=[0.0], response_x=[0.0])
+    with pytest.raises(ValueError, match="directions = 'zq'"):  # lateral loads: test_lateral
+        track.discrete_receptance(g, lay, [100.0], load=load, outputs=outs,
+                                  force_x=[0.0], response_x=[0.0], directions="zq")
     with pytest.raises(ValueError, match="force_x"):
         track.discrete_receptance(g, lay, [100.0], load=load, outputs=outs,
                                   force_x=[np.nan], response_x=[0.0])

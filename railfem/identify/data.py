@@ -257,10 +257,15 @@ def decay_rate_target(meas: DecayRateMeasurement, spacing: float, *, sensor: str
     """A Target from a measured decay rate per band (e.g. a row of a decay-rate table): the
     model is evaluated as an EN 15461 test on it (sensor at mid-span, the standard's
     positions for ``spacing`` unless given, the point struck ``point_offset`` m away) on a
-    1/9-octave grid covering the bands; bands not valid in the data are left out."""
-    if meas.direction != "z":
-        raise ValueError(f"the track models are vertical; this decay rate is direction "
-                         f"{meas.direction!r}: select the vertical rows (direction 'z'/'v')")
+    1/9-octave grid covering the bands; bands not valid in the data are left out. A lateral
+    decay rate (direction 'y') is modelled with the lateral channel 'head_lateral' (lateral
+    hammer and sensor on the side of the head, railfem.models), which needs a base spec
+    whose supports act laterally (support_directions with 'y')."""
+    if meas.direction not in ("z", "y"):
+        raise ValueError(f"this decay rate is direction {meas.direction!r}: the models give "
+                         "vertical ('z'/'v') and lateral ('y'/'h') decay rates")
+    if meas.direction == "y" and sensor in models.WHERE:
+        sensor = "head_lateral"  # lateral hammer and sensor on the side of the head
     centres = np.asarray(meas.frequency, dtype=float)
     f = iec61260.ninth_octave_grid(float(centres.min()), float(centres.max()))
     bands = iec61260.third_octave_bands(float(centres.min()), float(centres.max()))

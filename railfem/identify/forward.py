@@ -33,7 +33,8 @@ from railfem.supports import dynamic_stiffness
 
 log = logging.getLogger(__name__)
 
-FAST = ("kp", "eta_p", "kb", "eta_b", "ms")
+FAST = ("kp", "eta_p", "kb", "eta_b", "ms", "kp_lat", "eta_p_lat", "kp_long", "eta_p_long",
+        "kb_lat", "eta_b_lat", "ms_lat")
 SLOW = ("eta_r", "pad_length")
 SPECTRAL_TOLERANCE = 1e-8  # largest relative difference to the direct coupling accepted
 
@@ -50,11 +51,20 @@ class Geometry:
 
     def __post_init__(self):
         for o in self.outputs:
-            if o not in models.WHERE:
-                raise ValueError(f"sensor {o!r}: the models have 'head' and 'foot' sensors; "
-                                 "name the measurement's sensors head/foot (or map them)")
+            if o not in models.CHANNELS:
+                raise ValueError(f"sensor {o!r}: the models have 'head' and 'foot' sensors "
+                                 "(and the lateral 'head_lateral'); name the measurement's "
+                                 "sensors head/foot (or map them)")
+        if len({o in models.LATERAL for o in self.outputs}) > 1:
+            raise ValueError(f"sensors {self.outputs}: fit vertical and lateral data "
+                             "separately (one hammer direction per geometry)")
         object.__setattr__(self, "frequency", np.asarray(self.frequency, dtype=float))
         object.__setattr__(self, "force_x", np.asarray(self.force_x, dtype=float))
+
+    @property
+    def force(self) -> str:
+        """The hammer channel: lateral on the side of the head for lateral sensors."""
+        return "head_lateral" if self.outputs[0] in models.LATERAL else "head"
 
 
 def slow_names(space: ParameterSpace) -> tuple[str, ...]:
@@ -74,7 +84,7 @@ class DirectEngine:
     def receptance(self, spec: TrackSpec) -> np.ndarray:
         g = self.geometry
         a = models.receptance(spec, g.frequency, g.force_x, [g.sensor_x], outputs=g.outputs,
-                              cache=self.cache)
+                              force=g.force, cache=self.cache)
         return a[:, :, 0, :]
 
 
@@ -142,7 +152,9 @@ class ForwardModel:
                  cache=False, progress=None):
         self.space, self.geometry, self.cache, self.progress = space, geometry, cache, progress
         model = space.base.model
-        spectral_ok = model in ("wfe-discrete", "timoshenko-discrete") and space.base.uniform
+        # the eigen form needs one support stiffness per frequency: vertical springs only
+        spectral_ok = (model in ("wfe-discrete", "timoshenko-discrete") and space.base.uniform
+                       and space.base.support_directions == "z" and geometry.force == "head")
         if engine == "auto":
             engine = "spectral" if spectral_ok else "direct"
         if engine == "spectral" and not spectral_ok:
