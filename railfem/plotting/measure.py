@@ -169,3 +169,4 @@ def plot_band_errors(x, errors: dict, *, ax=None, xlabel: str = "Wavelength (cm)
     ax.set_ylabel(ylabel)
     ax.grid(True, which="both", alpha=0.3)
     legend(ax)
+    return ax
