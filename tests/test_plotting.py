@@ -339,3 +339,14 @@ def test_plot_along_rail_distance_from_force_and_sleepers(tmp_path):
     assert np.all((xs >= -6.3) & (xs <= 5.7)) and np.diff(xs) == pytest.approx(0.6)
     assert "sleeper (support)" in [t.get_text() for t in ax.get_legend().get_texts()]
     save_and_check(ax, tmp_path, "along_rail.png")
+
+
+def test_plot_band_errors_returns_its_axes(tmp_path):
+    """The study job titles and saves the Axes plot_band_errors returns (it returned None
+    for a while, which only the slow study test would have noticed)."""
+    wavelength = np.array([0.2, 0.1, 0.05, 0.025])
+    ax = plotting.plot_band_errors(wavelength, {"full": [0.5, -0.2, 0.1, 1.5],
+                                                "simplified": [1.0, 0.3, -0.8, 2.0]})
+    assert ax is not None and ax.xaxis_inverted()
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["full", "simplified"]
+    save_and_check(ax, tmp_path, "band_errors.png")

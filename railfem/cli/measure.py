@@ -1,0 +1,200 @@
+"""Subcommands on measured data: ``tdr`` (hammer, pass-by), ``fit``, ``diagnose``."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from .common import count, finite, non_negative, positive, report_written
+
+
+# ------------------------------------------------------------ pass-by decay rate
+def tdr_passby_args(p: argparse.ArgumentParser) -> None:
+    p.set_defaults(_run=tdr_passby_run)
+    p.add_argument("recordings", nargs="+", type=Path, metavar="RECORDING",
+                   help="pass-by recordings: .npz or .wav, each with a .toml or .json "
+                        "metadata file of the same name (quantity, fs_hz, speed_m_s, ...)")
+    p.add_argument("--f-low", type=positive, default=100.0, help="lowest band (Hz)")
+    p.add_argument("--f-high", type=positive, default=5000.0, help="highest band (Hz)")
+    p.add_argument("--speed", type=positive, default=None, metavar="M/S",
+                   help="train speed in m/s (overrides the metadata)")
+    p.add_argument("--axle-spacing", type=positive, default=None, metavar="M",
+                   help="bogie axle spacing in m, to find the speed when it is not known")
+    p.add_argument("--channel", default=None, metavar="NAME",
+                   help="channel of multi-channel 'railfem passby' recordings")
+    p.add_argument("--l1", type=positive, default=1.0, metavar="M",
+                   help="energy window around each wheel, m (default 1)")
+    p.add_argument("--l3-low", type=positive, default=0.6, metavar="M",
+                   help="slope-fit length below --l3-split, m (default 0.6)")
+    p.add_argument("--l3-high", type=positive, default=1.2, metavar="M",
+                   help="slope-fit length from --l3-split up, m (default 1.2)")
+    p.add_argument("--l3-split", type=positive, default=1000.0, metavar="HZ",
+                   help="band centre frequency where the slope-fit length changes (Hz)")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/tdr-passby"),
+                   metavar="DIR", help="output folder (default railfem-output/tdr-passby)")
+
+
+def tdr_passby_run(args) -> int:
+    from ..estimators.passby import PassbyOptions
+    from ..tdrpassbyjob import run_tdr_passby
+
+    opts = PassbyOptions(f_low=args.f_low, f_high=args.f_high, l1=args.l1,
+                         l3_low=args.l3_low, l3_high=args.l3_high, l3_split_hz=args.l3_split)
+    s = run_tdr_passby(args.recordings, args.out, opts, speed=args.speed,
+                       axle_spacing=args.axle_spacing, channel=args.channel)
+    for w in s["wheels"]:
+        sys.stdout.write(f"{w['name']}: {w['count']} wheels, {w['speed_m_s']:.2f} m/s "
+                         f"({w['speed_source']})\n")
+    report_written(s["files"])
+    return 0
+
+
+# ------------------------------------------------------------ decay rate from data
+def tdr_args(p: argparse.ArgumentParser) -> None:
+    sub = p.add_subparsers(dest="method", metavar="METHOD", required=True)
+    h = sub.add_parser("hammer", help="EN 15461 hammer method on a measurement",
+                       description="EN 15461 decay rate of a hammer measurement: a dataset "
+                       "folder (frf.csv + meta.json) or a TOML descriptor of a CSV/UFF file.")
+    h.add_argument("data", type=Path, metavar="DATA", help="dataset folder or .toml descriptor")
+    h.add_argument("--sensor", nargs="+", metavar="NAME", help="sensors to use (default all)")
+    h.add_argument("--threshold-db", type=finite, default=-15.0, metavar="DB",
+                   help="noise-floor candidates: level re the point FRF below this (default -15)")
+    h.add_argument("--floor-drop-db", type=positive, default=3.0, metavar="DB",
+                   help="a tail is a noise floor when it falls less than this (default 3)")
+    h.add_argument("--plain-threshold", action="store_true",
+                   help="drop everything below the threshold (no flat-tail test)")
+    h.add_argument("--attenuation-range", type=non_negative, nargs=2, metavar=("LOW", "HIGH"),
+                   help="also drop positions implying an attenuation outside LOW..HIGH dB/m "
+                   "below 400 Hz (e.g. 3 30); off by default")
+    h.add_argument("--no-exclusion", action="store_true", help="use every position")
+    h.add_argument("--point", choices=("nominal", "realised"), default="nominal",
+                   help="weight the point FRF at x = 0 (EN 15461, default) or where it was struck")
+    h.add_argument("--out", type=Path, default=Path("railfem-output/tdr"), metavar="DIR",
+                   help="output folder (default railfem-output/tdr)")
+    h.set_defaults(_run=tdr_run)
+    tdr_passby_args(sub.add_parser(
+        "passby", help="energy iteration and slope fitting on pass-by recordings",
+        description="Track decay rate from pass-by recordings (time signals + metadata): "
+                    "energy iteration and slope fitting per one-third-octave band."))
+
+
+def tdr_run(args) -> int:
+    from ..estimators.tdr import NO_EXCLUSION, NoiseFloorExclusion
+    from ..tdrjob import run_tdr_hammer
+
+    if args.no_exclusion:
+        exclusion = NO_EXCLUSION
+    else:
+        exclusion = NoiseFloorExclusion(
+            threshold_db=args.threshold_db,
+            floor_drop_db=None if args.plain_threshold else args.floor_drop_db,
+            attenuation_range=None if args.attenuation_range is None else tuple(args.attenuation_range))
+    s = run_tdr_hammer(args.data, args.out, exclusion=exclusion, point=args.point,
+                       sensors=args.sensor)
+    for name, r in s["decay_rate"].items():
+        n_ok = sum(r["suitable"])
+        sys.stdout.write(f"{name}: {n_ok} of {len(r['suitable'])} bands suitable\n")
+    report_written(s["files"])
+    return 0
+
+
+# ------------------------------------------------------------ track parameters from data
+def fit_args(p: argparse.ArgumentParser) -> None:
+    from ..identify.fit import DEFAULT_PARAMETERS
+    from ..spec import MODELS
+
+    p.add_argument("data", type=Path, metavar="DATA",
+                   help="hammer dataset folder / .toml descriptor, or a decay-rate table .csv")
+    p.add_argument("--model", choices=MODELS, default="wfe-discrete",
+                   help="track model (default wfe-discrete)")
+    p.add_argument("--use", default=None, metavar="Q,Q",
+                   help="quantities fitted: point,phase,transfer,tdr (default "
+                   "point,transfer,tdr for hammer data, tdr for a table)")
+    p.add_argument("--parameters", default=",".join(DEFAULT_PARAMETERS), metavar="P,P",
+                   help="parameters fitted: kp,eta_p,kb,eta_b,eta_r,ms,pad_length "
+                   f"(default {','.join(DEFAULT_PARAMETERS)})")
+    p.add_argument("--preset", default="site", help="spec whose other values are kept "
+                   "(Table 1 preset, default site; the data's sleeper spacing is used)")
+    p.add_argument("--row", type=count, metavar="N", default=None,
+                   help="table: row N of the selection (0-based)")
+    p.add_argument("--select", default=None, metavar="K=V,...",
+                   help="table: rows matching e.g. dir=v,sec=B5 (keys dir, sec, date, rail)")
+    p.add_argument("--campaign", action="store_true",
+                   help="table: fit every selected row (on a Dask cluster)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS",
+                   help="Dask scheduler address for --campaign (default: a local cluster)")
+    p.add_argument("--transfer-positions", type=non_negative, nargs="+", metavar="M",
+                   help="hammer distances (m) of the transfers fitted (nearest measured)")
+    p.add_argument("--f-low", type=positive, default=None, metavar="HZ",
+                   help="lowest frequency (Hz) of the FRF points fitted (default: all)")
+    p.add_argument("--f-high", type=positive, default=None, metavar="HZ",
+                   help="highest frequency (Hz) of the FRF points fitted (default: all)")
+    p.add_argument("--starts", type=count, default=8, metavar="N",
+                   help="multi-start points (Sobol, default 8)")
+    p.add_argument("--workers", type=count, default=None, metavar="N",
+                   help="parallel processes (default: all cores)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the start points")
+    p.add_argument("--no-profiles", action="store_true", help="skip the profile likelihoods")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/fit"), metavar="DIR",
+                   help="output folder (default railfem-output/fit)")
+
+
+def fit_run(args) -> int:
+    from ..fitjob import parse_use, run_fit
+    from ..spec import preset
+
+    use = parse_use(args.use) if args.use else None
+    params = tuple(x.strip() for x in args.parameters.split(",") if x.strip())
+    s = run_fit(args.data, args.out, model=args.model, use=use, parameters=params,
+                select=args.select, row=args.row, campaign=args.campaign,
+                scheduler=args.scheduler, base=preset(args.preset), n_starts=args.starts,
+                workers=args.workers, seed=args.seed,
+                transfer_positions=args.transfer_positions,
+                f_range=(None if args.f_low is None and args.f_high is None else
+                         (args.f_low or 0.0, args.f_high or float("inf"))),
+                profiles=() if args.no_profiles else ("kp", "kb"),
+                command=" ".join(sys.argv))
+    results = [s["result"]] if "result" in s else [r for r in s["rows"]]
+    for r in results:
+        for name, p in r["parameters"].items():
+            sys.stdout.write(f"{name} = {p['value']:.4g} [{p['ci95'][0]:.3g}, "
+                             f"{p['ci95'][1]:.3g}] identifiable: {p['identifiable']}\n")
+    report_written([Path(args.out) / "run.json"])
+    return 0
+
+
+def diagnose_args(p: argparse.ArgumentParser) -> None:
+    from ..spec import MODELS
+
+    p.add_argument("data", type=Path, metavar="DATA",
+                   help="hammer dataset folder / .toml descriptor, or a decay-rate table .csv")
+    p.add_argument("--model", choices=MODELS, default="wfe-discrete",
+                   help="track model (default wfe-discrete)")
+    p.add_argument("--effects", default=None, metavar="E,E",
+                   help="candidate effects (default: the whole library)")
+    p.add_argument("--select", default=None, metavar="K=V,...",
+                   help="table: rows matching e.g. dir=v,sec=B5 (keys dir, sec, date, rail)")
+    p.add_argument("--group", default="section,date", metavar="K,K",
+                   help="table: diagnose rows grouped by these keys (default section,date)")
+    p.add_argument("--spacing", type=positive, default=0.6, metavar="M",
+                   help="table: sleeper spacing in m (default 0.6)")
+    p.add_argument("--starts", type=count, default=4, metavar="N",
+                   help="multi-start points of the base fit (default 4)")
+    p.add_argument("--workers", type=count, default=1, metavar="N",
+                   help="parallel processes of the base fit (default 1)")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/diagnose"), metavar="DIR",
+                   help="output folder (default railfem-output/diagnose)")
+
+
+def diagnose_run(args) -> int:
+    from ..diagnosejob import run_diagnose
+
+    effects = ([x.strip() for x in args.effects.split(",") if x.strip()]
+               if args.effects else None)
+    s = run_diagnose(args.data, args.out, model=args.model, select=args.select,
+                     group=args.group, spacing=args.spacing, effects=effects,
+                     n_starts=args.starts, workers=args.workers, command=" ".join(sys.argv))
+    for g in s["groups"]:
+        sys.stdout.write(f"{g['name']}: {g['statement']}\n")
+    report_written([Path(args.out) / "run.json"])
+    return 0

@@ -1,0 +1,181 @@
+"""Supported-track subcommands: ``track`` and ``support-convergence``."""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .common import BadInput, add_profile, count, non_negative, positive, report_written
+
+
+def track_args(p: argparse.ArgumentParser) -> None:
+    from ..spec import MODELS, PRESETS
+
+    p.add_argument("--profile", default=None,
+                   help="'60E1' (= UIC60, default), 'rect:WIDTHxHEIGHT' in mm, or the path "
+                        "of an outline CSV (y,z in mm, counter-clockwise, foot at z = 0)")
+    p.add_argument("--h", type=positive, default=None, metavar="MM",
+                   help="element size in mm, 0.5 to 100 (default 10)")
+    p.add_argument("--preset", choices=sorted(PRESETS), default=None,
+                   help="track parameter set of METHOD.md Table 1 (default site)")
+    p.add_argument("--config", type=Path, default=None, metavar="FILE",
+                   help="track spec and job settings from a TOML file or from a run.json of "
+                        "an earlier run (its 'config' section); options given here override "
+                        "it, it overrides the preset")
+    p.add_argument("--from-run", type=Path, default=None, metavar="DIR",
+                   help="repeat the run whose outputs are in DIR (same as --config "
+                        "DIR/run.json)")
+    p.add_argument("--model", choices=MODELS, default=None,
+                   help="track model (default wfe-discrete)")
+    g = p.add_argument_group("track parameters (override the preset and the config)")
+    g.add_argument("--kp", type=non_negative, default=None, metavar="MN/m",
+                   help="rail pad stiffness per fastener, MN/m")
+    g.add_argument("--eta-p", type=non_negative, default=None, metavar="ETA",
+                   help="rail pad loss factor (-)")
+    g.add_argument("--kb", type=non_negative, default=None, metavar="MN/m",
+                   help="ballast stiffness per fastener and rail, MN/m")
+    g.add_argument("--eta-b", type=non_negative, default=None, metavar="ETA",
+                   help="ballast loss factor (-)")
+    g.add_argument("--ms", type=non_negative, default=None, metavar="KG",
+                   help="sleeper mass per rail, kg")
+    g.add_argument("--eta-r", type=non_negative, default=None, metavar="ETA",
+                   help="rail loss factor (-)")
+    g.add_argument("--spacing", type=positive, default=None, metavar="MM",
+                   help="sleeper spacing, mm (Table 1: 600)")
+    g.add_argument("--pad-length", type=non_negative, default=None, metavar="MM",
+                   help="pad length along the rail, mm (default 150 on discrete and "
+                        "periodic models; 0 = point supports, the published configuration)")
+    g.add_argument("--n-rows", type=count, default=None,
+                   help="spring rows along each pad (default 3)")
+    g.add_argument("--n-supports", type=count, default=None,
+                   help="supports of the discrete models (default 131)")
+    g.add_argument("--n-foot-springs", type=count, default=None,
+                   help="springs across the rail foot per row (default 4)")
+    g.add_argument("--foot-rule", choices=("midpoint", "nodes"), default=None,
+                   help="springs across the foot: midpoint = a distributed bed through the "
+                        "element shape functions (default, converges with the mesh); nodes = "
+                        "point springs at foot nodes (the published configuration, with "
+                        "--n-foot-springs 8 --pad-length 0)")
+    g.add_argument("--support-directions", choices=("z", "zy", "zx", "zyx"), default=None,
+                   help="directions the supports act in (default z, vertical springs only); "
+                        "zyx adds lateral and longitudinal pads and the lateral decay rate")
+    j = p.add_argument_group("job")
+    j.add_argument("--f-low", type=positive, default=None, metavar="HZ",
+                   help="lowest band (Hz, default 50)")
+    j.add_argument("--f-high", type=positive, default=None, metavar="HZ",
+                   help="highest band (Hz, default 8000)")
+    j.add_argument("--cache-dir", type=Path, default=None, metavar="DIR",
+                   help="folder of the kernel cache (default $RAILFEM_CACHE or "
+                        "~/.cache/railfem)")
+    j.add_argument("--no-cache", action="store_true",
+                   help="keep kernels in memory only (nothing read from or written to disk)")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/track"), metavar="DIR",
+                   help="output folder (default railfem-output/track)")
+
+
+def _mm(name: str, value: float | None, low: float, high: float, example: str):
+    """A length given in mm on the command line, checked against a sane range, in m."""
+    if value is None:
+        return None
+    if value != 0 and not low <= value <= high:
+        raise BadInput(f"{name} {value:g} mm: lengths on this command line are in mm; give "
+                       f"a value between {low:g} and {high:g} mm (e.g. {example})")
+    return value * 1e-3
+
+
+def track_spec_from_args(args):
+    """(TrackSpec, JobSettings) from the track options: preset < config < options."""
+    from dataclasses import replace
+
+    from ..spec import preset, spec_from_dict
+    from ..trackjob import job_from_dict, read_config
+
+    if args.config is not None and args.from_run is not None:
+        raise BadInput("give either --config or --from-run, not both")
+    h = _mm("--h", args.h, 0.5, 100.0, "10")
+    spacing = _mm("--spacing", args.spacing, 100.0, 2000.0, "600")
+    pad = _mm("--pad-length", args.pad_length, 1.0, 1000.0, "150")
+    source = args.config if args.config is not None else args.from_run
+    spec_d, job_d = read_config(source) if source is not None else ({}, {})
+    if args.preset:  # an explicit --preset is the base, whatever the config names
+        spec_d = {k: x for k, x in spec_d.items() if k != "preset"}
+    spec = spec_from_dict(spec_d, base=preset(args.preset) if args.preset else None)
+    job = job_from_dict(job_d)
+    sup = {k: x for k, x in (("kp", args.kp), ("kb", args.kb)) if x is not None}
+    sup = {k: x * 1e6 for k, x in sup.items()}
+    sup.update({k: x for k, x in (("eta_p", args.eta_p), ("eta_b", args.eta_b),
+                                  ("ms", args.ms)) if x is not None})
+    rail = {k: x for k, x in (("profile", args.profile), ("h", h), ("eta", args.eta_r))
+            if x is not None}
+    top = {k: x for k, x in (("model", args.model), ("spacing", spacing), ("pad_length", pad),
+                             ("n_rows", args.n_rows), ("n_supports", args.n_supports),
+                             ("support_directions", args.support_directions))
+           if x is not None}
+    if sup:
+        top["support"] = replace(spec.support, **sup)
+    if rail:
+        top["rail"] = replace(spec.rail, **rail)
+    num = {k: x for k, x in (("n_foot_springs", args.n_foot_springs),
+                             ("foot_rule", args.foot_rule)) if x is not None}
+    if num:
+        top["numerics"] = replace(spec.numerics, **num)
+    spec = spec.replace(**top)
+    jobs = {k: x for k, x in (("f_low", args.f_low), ("f_high", args.f_high)) if x is not None}
+    return spec, replace(job, **jobs)
+
+
+def track_run(args) -> int:
+    from ..trackjob import run_track
+
+    spec, job = track_spec_from_args(args)
+    cache = False if args.no_cache else args.cache_dir
+    s = run_track(spec, args.out, job=job, cache=cache)
+    peaks = ", ".join(f"{k} {v:.0f} Hz" for k, v in s["rail_pad_peak_hz"].items())
+    sys.stdout.write(f"{s['name']} track, {s['model']}: rail-on-pad peak {peaks}; "
+                     f"{s['runtime_s']:.1f} s\n")
+    report_written(s["files"])
+    return 0
+
+
+def support_args(p: argparse.ArgumentParser) -> None:
+    from ..footprints import RULES
+    from ..supports import PRESETS
+
+    add_profile(p, h_default=None)
+    p.add_argument("--preset", choices=sorted(PRESETS), default="site",
+                   help="track parameter set of METHOD.md Table 1 (default site)")
+    p.add_argument("--sizes", type=positive, nargs="+", default=[10, 7.5, 5], metavar="MM",
+                   help="section element sizes in mm (default 10 7.5 5)")
+    p.add_argument("--width", type=count, nargs="+", default=[16, 32, 64], metavar="N",
+                   help="springs across the foot (default 16 32 64)")
+    p.add_argument("--rule", choices=RULES, default="midpoint",
+                   help="springs across the foot: midpoint (distributed bed, default) or "
+                        "nodes (the published configuration)")
+    p.add_argument("--pad-lengths", type=non_negative, nargs="+", default=[0.0, 0.15],
+                   metavar="M", help="pad lengths along the rail in m; 0 = point-like "
+                                     "(default 0 0.15)")
+    p.add_argument("--rows", type=count, nargs="+", default=[1, 2, 3, 6], metavar="N",
+                   help="spring rows along a pad of finite length (default 1 2 3 6)")
+    p.add_argument("--rows-ref", type=count, default=3,
+                   help="rows of the reference case of the h and width sweeps (default 3)")
+    p.add_argument("--n-supports", type=count, default=41,
+                   help="discrete supports centred on the sensor span (default 41)")
+    p.add_argument("--decay", action="store_true",
+                   help="also the EN 15461 decay rates per band (periodic track; slow)")
+    p.add_argument("--out", type=Path, default=Path("railfem-output/support-convergence"),
+                   metavar="DIR", help="output folder (default railfem-output/support-convergence)")
+
+
+def support_run(args) -> int:
+    from .. import jobs
+    from ..support_convergence import sweeps
+
+    cases = sweeps(np.array(args.sizes) * 1e-3, args.width, args.rows, args.pad_lengths,
+                   rule=args.rule, rows_ref=args.rows_ref)
+    res = jobs.run_support_convergence(args.out, cases, preset=args.preset, decay=args.decay,
+                                       n_supports=args.n_supports, profile=args.profile)
+    sys.stdout.write(res["paths"]["txt"].read_text())
+    report_written(res["paths"])
+    return 0
