@@ -256,3 +256,14 @@ def test_one_frequency_syntax_and_one_loss_factor_name(tmp_path):
                     ["roughness", "x.npz", "--track", "site"]):
         args = p.parse_args(command + ["--f-low", "100", "--f-high", "200"])
         assert (args.f_low, args.f_high) == (100, 200), command
+
+
+def test_fit_row_is_zero_based(capsys):
+    """`railfem fit TABLE --row N` counts from 0 as its help says: row 0 is accepted, a
+    negative row is refused with the rule named."""
+    p = cli.build_parser()
+    assert p.parse_args(["fit", "table.csv", "--row", "0"]).row == 0
+    with pytest.raises(SystemExit) as e:
+        p.parse_args(["fit", "table.csv", "--row", "-1"])
+    assert e.value.code == 2
+    assert "0-based" in capsys.readouterr().err

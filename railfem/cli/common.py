@@ -38,6 +38,10 @@ def count(text: str) -> int:
     return _number(text, int, ok=lambda v: v >= 1, expected="an integer >= 1")
 
 
+def index(text: str) -> int:
+    return _number(text, int, ok=lambda v: v >= 0, expected="an integer >= 0 (0-based)")
+
+
 def add_profile(p: argparse.ArgumentParser, h_default: float | None = 10.0) -> None:
     p.add_argument("--profile", default="60E1",
                    help="'60E1' (= UIC60, default), 'rect:WIDTHxHEIGHT' in mm, or the path "

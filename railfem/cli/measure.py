@@ -5,7 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .common import count, finite, non_negative, positive, report_written
+from .common import count, finite, index, non_negative, positive, report_written
 
 
 # ------------------------------------------------------------ pass-by decay rate
@@ -115,7 +115,7 @@ def fit_args(p: argparse.ArgumentParser) -> None:
                    f"(default {','.join(DEFAULT_PARAMETERS)})")
     p.add_argument("--preset", default="site", help="spec whose other values are kept "
                    "(Table 1 preset, default site; the data's sleeper spacing is used)")
-    p.add_argument("--row", type=count, metavar="N", default=None,
+    p.add_argument("--row", type=index, metavar="N", default=None,
                    help="table: row N of the selection (0-based)")
     p.add_argument("--select", default=None, metavar="K=V,...",
                    help="table: rows matching e.g. dir=v,sec=B5 (keys dir, sec, date, rail)")
