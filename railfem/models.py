@@ -40,6 +40,7 @@ from . import beams, kernelcache, meshing, mobility, profiles, track, waveguide
 from .coupling import DiscreteKernel, PeriodicKernel, couple_discrete, couple_periodic
 from .frf import FRF
 from .spec import RailSpec, TrackSpec
+from .validators import warn_once
 from .standards import en15461
 
 log = logging.getLogger(__name__)
@@ -301,10 +302,10 @@ def _warn_validity(spec: TrackSpec, f, fx, rx) -> None:
     a beam above BEAM_VALIDITY_HZ, a WFE section mesh with too few elements per wavelength,
     a discrete track asked for points beyond its supported stretch."""
     if spec.model.startswith("timoshenko") and f.max() > BEAM_VALIDITY_HZ:
-        log.warning("%s up to %.4g Hz: a beam has no cross-section deformation; above about "
-                    "%g Hz the rail's foot and web deform (foot flapping cuts on at ~5 kHz on "
-                    "60E1) and head and foot responses differ: use a wfe-* model there",
-                    spec.model, f.max(), BEAM_VALIDITY_HZ)
+        warn_once(log, "%s up to %.4g Hz: a beam has no cross-section deformation; above "
+                  "about %g Hz the rail's foot and web deform (foot flapping cuts on at ~5 kHz "
+                  "on 60E1) and head and foot responses differ: use a wfe-* model there",
+                  spec.model, f.max(), BEAM_VALIDITY_HZ)
     if spec.model.startswith("wfe"):
         waveguide.check_resolution(wfe_rail(spec.rail, spec.numerics.patch_width,
                                             spec.numerics.n_foot_springs,
@@ -315,9 +316,9 @@ def _warn_validity(spec: TrackSpec, f, fx, rx) -> None:
         # uniform tracks are re-centred on each pair: each point is sep/2 from the centre
         span = sep / 2 if spec.uniform else max(np.abs(fx).max(), np.abs(rx).max())
         if span > reach - 2 * spec.spacing:
-            log.warning("positions up to %.4g m from the centre of the %d supports (they reach "
-                        "+-%.4g m): beyond the supported stretch the rail is free; raise "
-                        "n_supports or use wfe-periodic", span, spec.n_supports, reach)
+            warn_once(log, "positions up to %.4g m from the centre of the %d supports (they "
+                      "reach +-%.4g m): beyond the supported stretch the rail is free; raise "
+                      "n_supports or use wfe-periodic", span, spec.n_supports, reach)
 
 
 def _centred_on_pairs(spec, f, fx, rx, outputs, store, progress, force="head"):

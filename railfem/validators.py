@@ -7,6 +7,7 @@ user sees, e.g. ``"HammerMeasurement.sleeper_spacing"``.
 from __future__ import annotations
 
 from collections.abc import Iterable
+import logging
 
 import numpy as np
 
@@ -99,3 +100,20 @@ def strictly_increasing(name: str, values, unit: str) -> np.ndarray:
 
 def _tail(hint: str) -> str:
     return f" ({hint})" if hint else ""
+
+
+_SAID: set[tuple[str, str]] = set()
+
+
+def warn_once(logger: logging.Logger, message: str, *args) -> None:
+    """logger.warning(message % args), once per process for each distinct text: a fitter
+    calls the models thousands of times with the same out-of-range request."""
+    text = message % args if args else message
+    if (logger.name, text) not in _SAID:
+        _SAID.add((logger.name, text))
+        logger.warning(text)
+
+
+def reset_warn_once() -> None:
+    """Forget what warn_once has said (a new session of calls says it again)."""
+    _SAID.clear()

@@ -14,6 +14,7 @@ from scipy.spatial import cKDTree
 
 from .materials import Material
 from .meshing import SectionMesh, skfem_mesh
+from .validators import warn_once
 
 log = logging.getLogger(__name__)
 
@@ -299,8 +300,8 @@ def check_resolution(guide: Waveguide, frequency: float) -> float:
     n = elements_per_wavelength(guide, float(frequency))
     if n < MIN_ELEMENTS_PER_WAVELENGTH:
         limit = n * float(frequency) / MIN_ELEMENTS_PER_WAVELENGTH
-        log.warning("the section mesh %s has %.1f elements per shortest (Rayleigh) wavelength "
-                    "at %.4g Hz, fewer than %g: results above about %.4g Hz are not reliable; "
-                    "use a finer mesh", guide.mesh.name, n, frequency,
-                    MIN_ELEMENTS_PER_WAVELENGTH, limit)
+        warn_once(log, "the section mesh %s has %.1f elements per shortest (Rayleigh) "
+                  "wavelength at %.4g Hz, fewer than %g: results above about %.4g Hz are not "
+                  "reliable; use a finer mesh", guide.mesh.name, n, frequency,
+                  MIN_ELEMENTS_PER_WAVELENGTH, limit)
     return n

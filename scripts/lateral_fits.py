@@ -39,12 +39,12 @@ def base(directions: str):
                      support_directions=directions).replace(eta_r=ETA_R)
 
 
-def run(table, out: Path, direction: str, rows=None, n_starts=3):
+def run(table, out: Path, direction: str, rows=None, n_starts=3, names=None):
     kind, items = read_data(table, select=f"dir={direction}", campaign=True)
     if rows:
         items = items[:rows]
     lateral = direction == "h"
-    names = LATERAL if lateral else VERTICAL
+    names = names or (LATERAL if lateral else VERTICAL)
     spec = base("zy" if lateral else "z")
     first = items[0][1]
     target = decay_rate_target(first, spec.spacing)
@@ -77,17 +77,22 @@ def main(argv=None):
     ap.add_argument("--rows", type=int, default=None)
     ap.add_argument("--dir", default="h,v")
     ap.add_argument("--starts", type=int, default=3)
+    ap.add_argument("--lateral-params", default=",".join(LATERAL),
+                    help="fitted parameters of the lateral rows (default all four)")
+    ap.add_argument("--vertical-params", default=",".join(VERTICAL),
+                    help="fitted parameters of the vertical rows (default all four)")
     a = ap.parse_args(argv)
     logging.basicConfig(level=logging.WARNING)
     a.out.mkdir(parents=True, exist_ok=True)
     allrows = []
     for d in a.dir.split(","):
-        allrows += run(a.table, a.out, d, a.rows, a.starts)
+        names = (a.lateral_params if d == "h" else a.vertical_params).split(",")
+        allrows += run(a.table, a.out, d, a.rows, a.starts, tuple(names))
         (a.out / "fits.json").write_text(json.dumps(allrows, indent=1))
-    for d, names in (("h", LATERAL), ("v", VERTICAL)):
+    for d in ("h", "v"):
         sel = [r for r in allrows if r["dir"] == d]
-        for n in names:
-            if sel:
+        for n in (LATERAL if d == "h" else VERTICAL):
+            if sel and n in sel[0]:
                 print(f"KEY median_{n} {np.median([r[n] for r in sel]):.6g}")
 
 

@@ -242,3 +242,12 @@ def test_scatter_test_against_repeat_scatter():
     assert big["verdict"] == "structure"
     assert big["structured_rms_db"] == pytest.approx(np.sqrt(np.mean(np.maximum(
         (3 * 0.5) ** 2 * rng.standard_normal(100000) ** 2 - 0.25, 0))), rel=0.15)
+
+
+def test_parabola_step_finds_the_vertex_and_stops_at_ends():
+    from railfem.diagnosis.refit import parabola_step
+
+    q = {x: (x - 0.3) ** 2 + 1.0 for x in (0.0, 0.5, 1.0)}
+    assert abs(parabola_step(q, 1e-6) - 0.3) < 1e-12
+    assert parabola_step({0.0: 0.0, 0.5: 1.0, 1.0: 2.0}, 1e-6) is None  # best at an end
+    assert parabola_step({0.0: 1.0, 0.3: 0.0, 1.0: 0.5}, 0.5) is None  # vertex too close

@@ -225,3 +225,16 @@ def test_requests_outside_a_models_range_are_flagged(caplog):
     with caplog.at_level(logging.WARNING, logger="railfem.waveguide"):
         waveguide.check_resolution(guide, 1.0e6)
     assert "elements per shortest" in caplog.text
+
+
+def test_out_of_range_warning_is_said_once(caplog):
+    """A fitter repeats the same request thousands of times: the validity warning is logged
+    once per distinct text, not per call."""
+    import logging
+
+    spec = preset("site", model="timoshenko-continuous")
+    f = np.array([100.0, 3000.0])
+    with caplog.at_level(logging.WARNING, logger="railfem.models"):
+        for _ in range(3):
+            models.receptance(spec, f, [0.0], [0.0])
+    assert caplog.text.count("beam has no cross-section deformation") == 1

@@ -45,8 +45,8 @@ from railfem.diagnosis import residual as resid
 from railfem.diagnosis.data import DiagnosisData, prepare
 from railfem.diagnosis.evaluate import Evaluator
 from railfem.diagnosis.refit import (BASE, REFINE_STEPS, Outcome, Problem,
-                                     interval_from_profile, noise_scale, profile_eta_r,
-                                     refit)
+                                     interval_from_profile, noise_scale, parabola_step,
+                                     profile_eta_r, refit)
 from railfem.identify import data as fdata
 from railfem.spec import TrackSpec, preset
 
@@ -211,17 +211,8 @@ def joint_profile(data, ev, spec_b, effect, start: Outcome, scale, gv) -> Outcom
     for v in values:
         at(v)
     for _ in range(REFINE_STEPS):
-        v = np.array(sorted(done))
-        c = np.array([done[u].cost for u in v])
-        k = int(np.argmin(c))
-        if not 0 < k < len(v) - 1:
-            break
-        A = np.vstack([v[k - 1:k + 2] ** 2, v[k - 1:k + 2], np.ones(3)]).T
-        a, b, _ = np.linalg.solve(A, c[k - 1:k + 2])
-        if a <= 0:
-            break
-        new = float(np.clip(-b / (2 * a), v[k - 1], v[k + 1]))
-        if min(abs(new - v)) < 1e-4 * (values[-1] - values[0]):
+        new = parabola_step({u: done[u].cost for u in done}, 1e-4 * (values[-1] - values[0]))
+        if new is None:
             break
         at(new)
     v = sorted(done)

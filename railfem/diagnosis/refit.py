@@ -444,6 +444,23 @@ def interval_from_profile(prof: dict, s2: float) -> dict:
                                                  if open_ else "")}
 
 
+
+def parabola_step(costs: dict, tol: float) -> float | None:
+    """The next value of a 1-D profile {value: cost}: the vertex of the parabola through the
+    best point and its two neighbours, kept between them; None when the best point is at an
+    end, the parabola opens downwards or the vertex is within ``tol`` of a known value."""
+    v = np.array(sorted(costs))
+    c = np.array([costs[x] for x in v])
+    k = int(np.argmin(c))
+    if not 0 < k < len(v) - 1:
+        return None
+    A = np.vstack([v[k - 1:k + 2] ** 2, v[k - 1:k + 2], np.ones(3)]).T
+    a, b, _ = np.linalg.solve(A, c[k - 1:k + 2])
+    if a <= 0:
+        return None
+    new = float(np.clip(-b / (2 * a), v[k - 1], v[k + 1]))
+    return None if min(abs(new - v)) < tol else new
+
 def profile_eta_r(data, evaluator, spec, effects, outcome: Outcome, scale, *,
                   max_steps: int | None = None, step: float = ETA_R_LATTICE,
                   refine: bool = True, tol: float = 0.001, bounds=None) -> Outcome:
@@ -486,17 +503,8 @@ def profile_eta_r(data, evaluator, spec, effects, outcome: Outcome, scale, *,
         else:
             break
     for _ in range(max_steps if refine else 0):
-        v = np.array(sorted(done))
-        c = np.array([done[x].cost for x in v])
-        k = int(np.argmin(c))
-        if not 0 < k < len(v) - 1:
-            break
-        A = np.vstack([v[k - 1:k + 2] ** 2, v[k - 1:k + 2], np.ones(3)]).T
-        a, b, _ = np.linalg.solve(A, c[k - 1:k + 2])
-        if a <= 0:
-            break
-        new = float(np.clip(-b / (2 * a), v[k - 1], v[k + 1]))
-        if min(abs(new - v)) < tol:
+        new = parabola_step({x: done[x].cost for x in done}, tol)
+        if new is None:
             break
         at(new)
     v = np.array(sorted(done))
