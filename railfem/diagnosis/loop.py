@@ -248,15 +248,17 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
     """Diagnose ``data`` (a HammerMeasurement, DecayRateMeasurement/Table, a list of them or
     DiagnosisData) with track model ``model``; ``effects``: names from the library
     (default all); ``base``: the spec whose other values are kept (default the site
-    preset); ``data_options``: to railfem.diagnosis.data.prepare (e.g. f_range=(50, 2000),
-    sensors=['head']). See the module docstring for the steps."""
+    preset with point-like supports, pad_length = 0); ``data_options``: to
+    railfem.diagnosis.data.prepare (e.g. f_range=(50, 2000), sensors=['head']). See the module docstring for the steps."""
     from railfem.identify import fit as identify_fit
 
     t0 = time.perf_counter()
     seconds = {}
     data = prepare(data, spacing=spacing, **(data_options or {}))
-    spec0 = (base if base is not None else preset("site")).replace(model=model,
-                                                                   spacing=data.spacing)
+    # the default base has point-like supports (the published configuration): a pad of
+    # finite length is one of the effects the search can find (effects/pad_length.py)
+    spec0 = base if base is not None else preset("site", pad_length=0.0)
+    spec0 = spec0.replace(model=model, spacing=data.spacing)
     names = library.names() if effects is None else tuple(effects)
     for n in names:
         library.get(n)

@@ -31,7 +31,8 @@ def frequencies(n_per_octave: int = 9, low: float = 50.0, high: float = 5000.0):
 
 
 def truth_spec(model=MODEL, **changes):
-    return rf.preset("site", model=model).replace(**{**TRUTH, **changes})
+    # point-like supports, as the diagnosis's base: the finite pad is an effect of its own
+    return rf.preset("site", model=model, pad_length=0.0).replace(**{**TRUTH, **changes})
 
 
 def clean(spec, f, *, outputs=("head",), sensor_shift=0.0, hammer_offset=0.0):
