@@ -25,7 +25,7 @@ _EXPORTS = {
     "MODELS": "spec", "Numerics": "spec", "RailSpec": "spec", "SupportDeviation": "spec",
     "TrackSpec": "spec", "preset": "spec",
 }
-_MODULES = ("models", "params", "spec")
+_MODULES = ("diagnosis", "identify", "io", "models", "params", "spec")
 
 __all__ = ["__version__", *_EXPORTS, *_MODULES]
 

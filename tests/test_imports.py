@@ -87,3 +87,13 @@ def test_cli_chooses_single_thread_blas_before_numpy_loads():
                           timeout=120, env=env)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stdout.strip() == "1"
+
+
+def test_docs_entry_points_resolve_from_the_package():
+    """The docs write rf.io.read_measurement, rf.identify.fit, rf.diagnosis.diagnose:
+    they load lazily from `import railfem as rf`."""
+    import railfem as rf
+
+    assert callable(rf.io.read_measurement)
+    assert callable(rf.identify.fit)
+    assert callable(rf.diagnosis.diagnose)
