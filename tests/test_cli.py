@@ -267,3 +267,31 @@ def test_fit_row_is_zero_based(capsys):
         p.parse_args(["fit", "table.csv", "--row", "-1"])
     assert e.value.code == 2
     assert "0-based" in capsys.readouterr().err
+
+
+def test_track_job_lateral_outputs(tmp_path):
+    """Issue 15: with supports acting laterally the track job writes the lateral EN 15461
+    decay rate next to the vertical ones, the lateral transfer mobilities it comes from
+    (recomputing the decay rate from that file gives the column back) and a run.json block;
+    without 'y' it writes none of them."""
+    from railfem.frfio import read_frf_csv
+    from railfem.standards import en15461
+
+    code, out = _track(tmp_path, "lat", "--preset", "site", "--model", "wfe-periodic",
+                       "--support-directions", "zy", "--f-low", "200", "--f-high", "500")
+    assert code == 0
+    rows = read_csv(out / "decay_rate.csv")
+    lat = np.array([float(r["head_lateral_db_per_m"]) for r in rows])
+    head = np.array([float(r["head_db_per_m"]) for r in rows])
+    assert np.all(np.isfinite(lat)) and np.all(lat > 0)
+    assert np.abs(lat - head).max() > 1.0  # its own quantity, not a copy of the vertical
+    Y = read_frf_csv(out / "transfer_mobility_lateral.csv")
+    run = json.loads((out / "run.json").read_text())
+    res = en15461.decay_rate(Y.frequency, Y.values[:, 0, :], np.array(run["hammer_positions_m"]))
+    assert np.allclose(res.decay_rate[:len(lat)], lat, atol=6e-5)  # CSV rounding
+    assert run["lateral"]["channel"] == "head_lateral"
+    assert (out / "decay_rate_lateral.png").exists()
+    code, plain = _track(tmp_path, "vert", "--preset", "site", "--model", "wfe-periodic",
+                         "--f-low", "200", "--f-high", "500")
+    assert "head_lateral_db_per_m" not in read_csv(plain / "decay_rate.csv")[0]
+    assert not (plain / "transfer_mobility_lateral.csv").exists()
