@@ -139,8 +139,9 @@ def refined_point_mobility(spec: TrackSpec, f, point, marks: dict, hammer_x0: fl
     """The point mobility on the 1/9-octave grid ``f`` with a 1/54-octave grid added around
     the rail-on-pad and pinned-pinned peaks (one 1/9-octave step either side), so the plot
     resolves them: (frequency, values (nf', 2 outputs)). One extra model call for a single
-    force-response pair; its near-field tail is taken at its own lowest frequency, which
-    moves point values by ~1e-4 (waves.frozen_tail), far below what a plot shows."""
+    force-response pair; it includes the grid's first frequency, so its near-field tail
+    (waves.frozen_tail, taken at the lowest frequency of a call) is the one the grid's call
+    solved and cached: no second dense tail solve, and refined and grid values share it."""
     step = 10 ** (1 / 30)
     extra = []
     for name in ("rail on pad", "pinned-pinned"):
@@ -153,7 +154,8 @@ def refined_point_mobility(spec: TrackSpec, f, point, marks: dict, hammer_x0: fl
         return f, point
     fe = np.unique(np.concatenate(extra))
     fe = fe[np.min(np.abs(np.log(fe[:, None] / f[None, :])), axis=1) > 1e-6]
-    a = models.receptance(spec, fe, [hammer_x0], [sensor_x], cache=cache)[:, :, 0, 0]
+    a = models.receptance(spec, np.concatenate([f[:1], fe]), [hammer_x0], [sensor_x],
+                          cache=cache)[1:, :, 0, 0]
     fa = np.concatenate([f, fe])
     ya = np.concatenate([point, 1j * 2 * np.pi * fe[:, None] * a])
     o = np.argsort(fa)
