@@ -249,7 +249,8 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
     DiagnosisData) with track model ``model``; ``effects``: names from the library
     (default all); ``base``: the spec whose other values are kept (default the site
     preset with point-like supports, pad_length = 0); ``data_options``: to
-    railfem.diagnosis.data.prepare (e.g. f_range=(50, 2000), sensors=['head']). See the module docstring for the steps."""
+    railfem.diagnosis.data.prepare (e.g. f_range=(50, 2000), sensors=['head']). See the
+    module docstring for the steps."""
     from railfem.identify import fit as identify_fit
 
     t0 = time.perf_counter()
