@@ -167,3 +167,17 @@ def band_ticks(ax, centres: np.ndarray) -> None:
     ax.xaxis.set_minor_locator(NullLocator())
     ax.tick_params(axis="x", labelrotation=90, labelsize="small")
     ax.set_xlim(ordered[0] * 2 ** (-1 / 6), ordered[-1] * 2 ** (1 / 6))
+
+
+def band_axes(ax, centres, ylabel: str, *, logy: bool = False, grid_axis: str = "both"):
+    """Log band axis with nominal labels, value label, grid and legend; returns ``ax``."""
+    ax.set_xscale("log")
+    if logy:
+        ax.set_yscale("log")
+        plain_log_labels(ax.yaxis)
+    band_ticks(ax, centres)
+    ax.set_xlabel("One-third-octave band centre frequency (Hz)")
+    ax.set_ylabel(ylabel)
+    ax.grid(True, which="major", axis=grid_axis, alpha=0.3)
+    legend(ax)
+    return ax

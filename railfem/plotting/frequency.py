@@ -7,7 +7,7 @@ import logging
 
 import numpy as np
 
-from .base import (MARKERS, axes_or_new, band_ticks, columns, curve_labels, legend,
+from .base import (MARKERS, axes_or_new, band_axes, band_ticks, columns, curve_labels, legend,
                   plain_log_labels, positive_or_nan, pyplot, vector)
 
 log = logging.getLogger(__name__)
@@ -127,16 +127,7 @@ def plot_band_values(centres, values, labels=None, *,
     for j, name in enumerate(names):
         ax.plot(centres, v[:, j], marker=MARKERS[j % len(MARKERS)], markersize=4,
                 label=name)
-    ax.set_xscale("log")
-    if logy:
-        ax.set_yscale("log")
-        plain_log_labels(ax.yaxis)
-    band_ticks(ax, centres)
-    ax.set_xlabel("One-third-octave band centre frequency (Hz)")
-    ax.set_ylabel(ylabel)
-    ax.grid(True, which="major", alpha=0.3)
-    legend(ax)
-    return ax
+    return band_axes(ax, centres, ylabel, logy=logy)
 
 
 #: Default decay-rate axis (dB/m): log scale over the range of track decay rates.

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import (MARKERS, axes_or_new, band_ticks, columns, curve_labels, legend,
+from .base import (MARKERS, axes_or_new, band_axes, band_ticks, columns, curve_labels, legend,
                   plain_log_labels, vector)
 
 
@@ -48,21 +48,7 @@ def plot_band_overlay(centres, measured, model=None, *, valid=None,
         for j in range(mod.shape[1]):
             suffix = f" {j + 1}" if mod.shape[1] > 1 else ""
             ax.plot(centres, mod[:, j], "-", label=f"{names[1] or 'model'}{suffix}")
-    return _band_axes(ax, centres, ylabel, logy=logy)
-
-
-def _band_axes(ax, centres, ylabel: str, *, logy: bool = False, grid_axis: str = "both"):
-    """Log band axis with nominal labels, value label, grid and legend; returns ``ax``."""
-    ax.set_xscale("log")
-    if logy:
-        ax.set_yscale("log")
-        plain_log_labels(ax.yaxis)
-    band_ticks(ax, centres)
-    ax.set_xlabel("One-third-octave band centre frequency (Hz)")
-    ax.set_ylabel(ylabel)
-    ax.grid(True, which="major", axis=grid_axis, alpha=0.3)
-    legend(ax)
-    return ax
+    return band_axes(ax, centres, ylabel, logy=logy)
 
 
 def plot_band_residual(centres, residual, labels=None, *, ylabel: str = "Model - measurement (dB)",
@@ -81,7 +67,7 @@ def plot_band_residual(centres, residual, labels=None, *, ylabel: str = "Model -
         left = centres * width ** (j - n / 2)
         ax.bar(left, r[:, j], width=left * (width - 1), align="edge", label=name)
     ax.axhline(0.0, color="black", linewidth=0.8)
-    return _band_axes(ax, centres, ylabel, grid_axis="y")
+    return band_axes(ax, centres, ylabel, grid_axis="y")
 
 
 # ------------------------------------------------------------- pass-by decay rates
