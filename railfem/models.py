@@ -307,9 +307,7 @@ def _warn_validity(spec: TrackSpec, f, fx, rx) -> None:
                   "on 60E1) and head and foot responses differ: use a wfe-* model there",
                   spec.model, f.max(), BEAM_VALIDITY_HZ)
     if spec.model.startswith("wfe"):
-        waveguide.check_resolution(wfe_rail(spec.rail, spec.numerics.patch_width,
-                                            spec.numerics.n_foot_springs,
-                                            spec.numerics.foot_rule).guide, f.max())
+        waveguide.check_resolution(_rail_of(spec).guide, f.max())  # the model's own rail
     if spec.model.endswith("discrete"):
         reach = (spec.n_supports - 1) / 2 * spec.spacing
         sep = np.abs(rx[:, None] - fx[None, :]).max()
