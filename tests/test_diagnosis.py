@@ -61,12 +61,60 @@ def test_each_effect_changes_what_the_model_predicts(name, small_record):
     grid = {(name, k): v[len(v) // 2] for k, v in e.grid.items()}
     pb = Problem(data=data, evaluator=Evaluator(), spec=spec, effects=(e,), grid=grid)
     x0 = np.log10([400e6, 0.2, 60e6, 1.0])
-    x = np.concatenate([x0, [p.parameter().encode(p.start) for p in e.continuous]])
+    # a random effect starts at its mean (no change): take it halfway to its upper bound
+    x = np.concatenate([x0, [p.parameter().encode(p.start) if e.prior is None else
+                             (p.parameter().encode(p.start) + p.parameter().encode(p.upper))
+                             / 2 for p in e.continuous]])
     a0 = pb0.predict(x0)[data.records[0].name]
     a = pb.predict(x)[data.records[0].name]
     near = np.abs(a0) > 1e-3 * np.abs(a0[:, :, :1])
     change = np.abs(20 * np.log10(np.abs(a[near]) / np.abs(a0[near])))
     assert change.max() > 0.1, name
+
+
+def test_random_support_prior_and_deviations():
+    """random_support: one deviation per window support with the fitted factors; the prior
+    entries are ln(factor) / prior SD (zero at the mean), so a well-posed fit shrinks the
+    supports the data do not see to the mean; the scatter is the RMS of the ln-factors."""
+    from railfem.diagnosis.effects import random_support as rs
+
+    e = effects.get("random_support")
+    th = {p.name: 1.0 for p in e.parameters}
+    assert np.all(e.prior(th) == 0)
+    th[rs.name("kb", -2)], th[rs.name("kp", 3)] = np.e, 0.5
+    pri = e.prior(th)
+    assert len(pri) == 2 * len(rs.INDICES)
+    assert sorted(np.round(pri[pri != 0], 9)) == sorted(np.round(
+        [1 / rs.PRIOR_SD["kb"], np.log(0.5) / rs.PRIOR_SD["kp"]], 9))
+    spec = e.apply(g.truth_spec().replace(deviations=(rf.SupportDeviation(index=40, kb=0.1),)),
+                   th)
+    devs = {d.index: d for d in spec.deviations}
+    assert set(devs) == set(rs.INDICES) | {40}
+    assert devs[-2].kb == pytest.approx(np.e) and devs[3].kp == 0.5 and devs[40].kb == 0.1
+    sc = rs.scatter(th)
+    assert sc["kb"] == pytest.approx(np.sqrt(1 / len(rs.INDICES)))
+
+
+def test_random_support_closed_form_jacobian_matches_finite_differences():
+    """The refit's Jacobian for the support factors of random_support (closed-form Woodbury
+    derivative of the receptance, then the residual along it) against central differences
+    of the whole residual (every quantity, the prior rows included)."""
+    from railfem.diagnosis.refit import Problem
+
+    data = prepare(g.dataset("random_support", 0, f=SMALL_F))
+    e = effects.get("random_support")
+    pb = Problem(data=data, evaluator=Evaluator(), spec=g.truth_spec(), effects=(e,),
+                 scale={q: 0.4 for q in ("point", "phase", "transfer", "tdr")})
+    assert pb.analytic
+    x = np.concatenate([np.log10([400e6, 0.2, 60e6, 1.0]),
+                        0.1 * np.random.default_rng(1).standard_normal(len(e.parameters))])
+    J = pb.jacobian(x)
+    for i in range(4, len(x)):
+        a, b = x.copy(), x.copy()
+        a[i] -= 1e-6
+        b[i] += 1e-6
+        ref = (pb.residual(b) - pb.residual(a)) / 2e-6
+        assert np.linalg.norm(J[:, i] - ref) < 1e-4 * np.linalg.norm(ref), i
 
 
 def test_campaign_effects_follow_the_covariate():

@@ -125,9 +125,9 @@ def test_bad_hook_values_are_named():
         SupportParameters(kp=1e8, kb=1e8, pad_laws=("soft",))
 
 
-def test_one_deviating_support_rank_one_update_against_the_door():
-    """The evaluator's Sherman-Morrison update for one deviating beam support against the
-    door's direct solve of the track with that support (301 supports at absolute
+def test_deviating_supports_woodbury_update_against_the_door():
+    """The evaluator's Woodbury update for deviating beam supports (one, or eleven at
+    random) against the door's direct solve of the track with them (301 supports at absolute
     positions). Near the sensor the two differ only by where the supported stretch ends:
     the door's own uniform paths (re-centred vs absolute) differ by ~1e-4 there."""
     import tests.blind.generators as g
@@ -137,13 +137,19 @@ def test_one_deviating_support_rank_one_update_against_the_door():
     rec = data.records[0]
     near = rec.fit.positions <= 3.0
     ev = Evaluator()
-    for index, factors in ((2, dict(kb=0.05)), (-1, dict(kp=0.3, kb=2.0)), (0, dict(ms=0.5))):
-        spec = g.truth_spec().replace(deviations=(SupportDeviation(index=index, **factors),))
+    rng = np.random.default_rng(3)
+    many = tuple(SupportDeviation(index=i, kb=float(np.exp(0.4 * rng.standard_normal())),
+                                  kp=float(np.exp(0.2 * rng.standard_normal())))
+                 for i in range(-2, 9))
+    cases = [(SupportDeviation(index=2, kb=0.05),), (SupportDeviation(index=-1, kp=0.3, kb=2.0),),
+             (SupportDeviation(index=0, ms=0.5),), many]
+    for devs in cases:
+        spec = g.truth_spec().replace(deviations=devs)
         a = ev.receptance(spec, rec)
         ref = models.receptance(spec.replace(n_supports=301), f, rec.fit.force_x,
                                 [rec.fit.sensor_x], outputs=("head",), cache=False)[:, :, 0, :]
         err = np.abs(a[:, :, near] / ref[:, :, near] - 1).max()
-        assert err < 1e-3, (index, err)
+        assert err < 1e-3, (devs, err)
         uni = models.receptance(g.truth_spec(), f, rec.fit.force_x, [rec.fit.sensor_x],
                                 outputs=("head",), cache=False)[:, :, 0, :]
         assert np.abs(uni[:, :, near] / ref[:, :, near] - 1).max() > 1e-2  # it matters

@@ -171,7 +171,8 @@ def diagnose_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--model", choices=MODELS, default="wfe-discrete",
                    help="track model (default wfe-discrete)")
     p.add_argument("--effects", default=None, metavar="E,E",
-                   help="candidate effects (default: the whole library)")
+                   help="candidate effects (default: the library but random_support; "
+                        "'all': every one)")
     p.add_argument("--select", default=None, metavar="K=V,...",
                    help="table: rows matching e.g. dir=v,sec=B5 (keys dir, sec, date, rail)")
     p.add_argument("--group", default="section,date", metavar="K,K",
@@ -191,6 +192,7 @@ def diagnose_run(args) -> int:
 
     effects = ([x.strip() for x in args.effects.split(",") if x.strip()]
                if args.effects else None)
+    effects = "all" if effects == ["all"] else effects
     s = run_diagnose(args.data, args.out, model=args.model, select=args.select,
                      group=args.group, spacing=args.spacing, effects=effects,
                      n_starts=args.starts, workers=args.workers, command=" ".join(sys.argv))

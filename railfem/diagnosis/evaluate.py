@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import logging
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -82,9 +83,9 @@ class Evaluator:
             return np.repeat(a, n_out, axis=1) if a.shape[1] != n_out else a
         t = record.fit
         sx, fx = shifted(record, shift)
-        if (spec.model == "timoshenko-discrete" and len(spec.deviations) == 1
+        if (spec.model == "timoshenko-discrete" and spec.deviations
                 and shift == (0.0, 0.0) and spec.pad_length == 0):
-            return self._one_deviation(spec, record)
+            return self._deviations(spec, record)
         if spec.deviations:
             need = int(2 * math.ceil((max(np.abs(fx).max(), abs(sx)) + MARGIN)
                                      / spec.spacing) + 1)
@@ -94,29 +95,51 @@ class Evaluator:
                               cache=self.cache)
         return a[:, :, 0, :]
 
-    def _one_deviation(self, spec, record) -> np.ndarray:
-        """A beam track with one deviating support: the uniform track's eigen form plus a
-        rank-one (Sherman-Morrison) update; exact, see OneDeviation."""
-        dev = spec.deviations[0]
+    def tangents(self, spec, record):
+        """(receptance, {(support index, 'kp' | 'kb'): d receptance / d ln factor}) of a
+        beam track with deviating supports (the Woodbury path, exact derivatives), or None
+        where that path does not serve the spec (a shift, pads in rows, a WFE rail)."""
+        if not (spec.model == "timoshenko-discrete" and spec.deviations
+                and spec.pad_length == 0):
+            return None
+        return self._deviations(spec, record, gradient=True)
+
+    def _deviations(self, spec, record, gradient: bool = False):
+        """A beam track with deviating supports: the uniform track's eigen form plus a
+        rank-m (Woodbury) update; exact, see Deviations."""
         uni = spec.replace(deviations=())
-        key = (record.geometry_key, "one-deviation", spec.model, float(spec.rail.eta),
+        key = (record.geometry_key, "deviations", spec.model, float(spec.rail.eta),
                spec.spacing, spec.n_supports, spec.rail, spec.numerics)
         if key not in self._banks:
             t = record.fit
             canon = uni.replace(support=plain_support(uni.support))
-            log.info("diagnosis: eigen form of the beam track for one deviating support "
+            log.info("diagnosis: eigen form of the beam track for deviating supports "
                      "(%s, eta_r %.4g)", record.name, spec.rail.eta)
             kernel, jr, jf = models.discrete_kernel(canon, t.frequency, t.force_x,
                                                     [t.sensor_x], outputs=t.outputs,
                                                     cache=self.cache)
-            self._banks[key] = OneDeviation(kernel, jr[0], jf[0], t.sensor_x, t.force_x,
-                                            spec.spacing)
+            self._banks[key] = Deviations(kernel, jr[0], jf[0], t.sensor_x, t.force_x,
+                                          spec.spacing)
             self.n_kernels += 1
         w = 2 * np.pi * record.fit.frequency
         K = dynamic_stiffness(uni.support, w)
-        dK = dynamic_stiffness(dev.apply(uni.support), w) - K
-        a = self._banks[key].receptance(K, dK, dev.index)[:, None, :]
-        return np.repeat(a, len(record.fit.outputs), axis=1)
+        k_dev = np.column_stack([dynamic_stiffness(d.apply(uni.support), w)
+                                 for d in spec.deviations])
+        n_out = len(record.fit.outputs)
+        idx = [d.index for d in spec.deviations]
+        if not gradient:
+            a = self._banks[key].receptance(K, k_dev, idx)
+            return np.repeat(a[:, None, :], n_out, axis=1)
+        a, da = self._banks[key].receptance(K, k_dev, idx, gradient=True)
+        h = 1e-7
+        tangent = {}
+        for j, d in enumerate(spec.deviations):
+            for which in ("kp", "kb"):
+                dk = (dynamic_stiffness(replace(d, **{which: getattr(d, which) * math.exp(h)})
+                                        .apply(uni.support), w) - k_dev[:, j]) / h
+                tangent[(d.index, which)] = np.repeat((da[:, :, j] * dk[:, None])[:, None],
+                                                      n_out, axis=1)
+        return np.repeat(a[:, None, :], n_out, axis=1), tangent
 
     def _plain(self, spec, record) -> SpectralCoupling:
         """The record's own geometry: railfem.identify's engine, so the kernel and its
@@ -174,22 +197,26 @@ class Evaluator:
         return bank
 
 
-class OneDeviation:
-    """A uniform beam track (one spring per support) with one support's stiffness changed
-    by dK: with alpha_ss = V diag(lam) V^-1 (per frequency) and h = 1 / (1 + K lam),
+class Deviations:
+    """A uniform beam track (one spring per support) with m supports' stiffnesses changed
+    (Woodbury). With alpha_ss = V diag(lam) V^-1 (per frequency), K the uniform support's
+    dynamic stiffness and M0 = I/K + alpha_ss, M0^-1 = V diag(K h) V^-1 with
+    h = 1 / (1 + K lam). Changing the supports J to k_J is M = M0 + E D E^T,
+    D = diag(1/k_J - 1/K), and
 
-        u = u_0 - dK (alpha_rs d)(G_jP) / (1 + dK s),   d = V (h * V^-1 e_j),
-        s = alpha_ss[j, :] d,   G_jP = alpha_sP[j] - alpha_ss[j, :] V diag(K h) V^-1 alpha_sP
+        u = alpha_rP - alpha_rs M^-1 alpha_sP
+          = u_0 + a (I + D C)^-1 D b,   C = E^T M0^-1 E,  a = alpha_rs M0^-1 E,
+                                        b = E^T M0^-1 alpha_sP
 
-    (Sherman-Morrison on (I + K alpha_ss) F = K alpha_sP P with row j changed; u_0 the
-    uniform track, G_jP the uniform track's deflection at support j). Each hammer pair is
-    solved on supports re-centred on it (railfem.models), so support J sits at kernel index
-    centre + J - round((x_s + x_P) / 2d)."""
+    (u_0 the uniform track; exact, any m, any factors including 0 change). Each hammer pair
+    is solved on supports re-centred on it (railfem.models), so support J sits at kernel
+    index centre + J - round((x_s + x_P) / 2d); a deviation outside a pair's window is
+    left out for that pair."""
 
     def __init__(self, kernel, jr, jf, sensor_x, force_x, spacing):
         n_s = kernel.ss_index.shape[0]
         if len(kernel.spring_weight) != 1:
-            raise ValueError("OneDeviation needs one spring per support (the beam)")
+            raise ValueError("Deviations needs one spring per support (the beam)")
         nf = len(kernel.frequency)
         n_pair = len(jf)
         self.centre = (n_s - 1) // 2
@@ -201,32 +228,55 @@ class OneDeviation:
         self.direct = np.empty((nf, n_pair), dtype=complex)
         self.V = np.empty((nf, n_s, n_s), dtype=complex)
         self.Vinv = np.empty((nf, n_s, n_s), dtype=complex)
-        self.B = np.empty((nf, n_s, n_pair), dtype=complex)
         for i in range(nf):
             A = kernel.ss[i][kernel.ss_index, 0, 0]
             B = kernel.sP[i][kernel.sP_index, 0][:, jf]
             G = kernel.rs[i][kernel.rs_index, 0, 0][jr, :]
             lam, V = np.linalg.eig(A)
             Vinv = np.linalg.inv(V)
-            self.lam[i], self.V[i], self.Vinv[i], self.B[i] = lam, V, Vinv, B
+            self.lam[i], self.V[i], self.Vinv[i] = lam, V, Vinv
             self.VB[i] = Vinv @ B
             self.GV[i] = G @ V
             self.direct[i] = kernel.rP[i][kernel.rP_index, 0][jr, jf]
+        self._gathered: dict = {}
 
-    def receptance(self, K, dK, index: int) -> np.ndarray:
-        """(nf, n_pair) receptance with support ``index`` (absolute) changed by dK (nf,)."""
+    def _gather(self, indices: tuple):
+        """The kernel indices the deviating supports take over all pairs (their union U)
+        and, per pair, where each one sits in U and whether it is inside the window."""
+        if indices not in self._gathered:
+            j = self.centre + np.asarray(indices)[None, :] - self.k[:, None]  # (pair, m)
+            ok = (j >= 0) & (j < self.n_s)
+            U, pos = np.unique(np.where(ok, j, 0), return_inverse=True)
+            if len(self._gathered) > 64:
+                self._gathered.clear()
+            self._gathered[indices] = (U, pos.reshape(j.shape), ok)
+        return self._gathered[indices]
+
+    def receptance(self, K, k_dev, indices, gradient: bool = False):
+        """(nf, n_pair) receptance with the supports ``indices`` (absolute) at dynamic
+        stiffnesses k_dev (nf, m) and all others at K (nf,); with ``gradient`` also its
+        derivative with respect to each k_dev, (nf, n_pair, m)."""
         K = np.asarray(K, dtype=complex)[:, None]
-        h = 1.0 / (1.0 + K * self.lam)  # (nf, n)
-        u0 = self.direct - np.einsum("fpm,fm,fmp->fp", self.GV, K * h, self.VB)
-        j = self.centre + int(index) - self.k  # (n_pair,)
-        ok = (j >= 0) & (j < self.n_s)
-        jj = np.where(ok, j, 0)
-        p = np.arange(len(jj))
-        AjV = self.V[:, jj, :] * self.lam[:, None, :]  # alpha_ss[j, :] V = (V Lambda)[j]
-        vj = np.transpose(self.Vinv[:, :, jj], (0, 2, 1))  # (nf, pair, m) = V^-1[:, j]
-        s = np.einsum("fpm,fm,fpm->fp", AjV, h, vj)
-        rd = np.einsum("fpm,fm,fpm->fp", self.GV, h, vj)
-        g = self.B[:, jj, p] - np.einsum("fpm,fm,fmp->fp", AjV, K * h, self.VB)
-        dK = np.asarray(dK, dtype=complex)[:, None]
-        u = u0 - dK * rd * g / (1.0 + dK * s)
-        return np.where(ok[None, :], u, u0)
+        Kh = K / (1.0 + K * self.lam)  # (nf, n)
+        u0 = self.direct - np.einsum("fpm,fm,fmp->fp", self.GV, Kh, self.VB)
+        U, pos, ok = self._gather(tuple(int(i) for i in indices))
+        VU = self.V[:, U, :] * Kh[:, None, :]  # (nf, u, n): rows U of V diag(K h)
+        VinvU = self.Vinv[:, :, U]  # (nf, n, u)
+        MU = VU @ VinvU  # M0^-1 on U x U
+        R = (self.GV * Kh[:, None, :]) @ VinvU  # alpha_rs M0^-1, columns U (nf, pair, u)
+        Q = VU @ self.VB  # M0^-1 alpha_sP, rows U (nf, u, pair)
+        p = np.arange(pos.shape[0])[:, None]
+        C = MU[:, pos[:, :, None], pos[:, None, :]]  # (nf, pair, m, m)
+        a = R[:, p, pos]  # (nf, pair, m)
+        b = np.swapaxes(Q, 1, 2)[:, p, pos]  # (nf, pair, m)
+        D = (1.0 / np.asarray(k_dev, dtype=complex) - 1.0 / K)[:, None, :] * ok[None]
+        m = D.shape[-1]
+        A = np.eye(m) + D[..., :, None] * C
+        y = np.linalg.solve(A, (D * b)[..., None])[..., 0]
+        u = u0 + np.einsum("fpm,fpm->fp", a, y)
+        if not gradient:
+            return u
+        # du/dD_j = [(I + D C)^-T a]_j (b - C y)_j; D_j = 1/k_j - 1/K
+        w = np.linalg.solve(np.swapaxes(A, -1, -2), a[..., None])[..., 0]
+        du_dD = w * (b - (C @ y[..., None])[..., 0])
+        return u, -du_dD * ok[None] / np.asarray(k_dev, dtype=complex)[:, None, :] ** 2

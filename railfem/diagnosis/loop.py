@@ -44,7 +44,7 @@ from railfem.diagnosis import effects as library
 from railfem.diagnosis import residual as resid
 from railfem.diagnosis.data import DiagnosisData, prepare
 from railfem.diagnosis.evaluate import Evaluator
-from railfem.diagnosis.refit import (BASE, REFINE_STEPS, Outcome, Problem,
+from railfem.diagnosis.refit import (BASE, MAX_GRID_START, REFINE_STEPS, Outcome, Problem,
                                      interval_from_profile, noise_scale, parabola_step,
                                      profile_eta_r, refit)
 from railfem.identify import data as fdata
@@ -247,7 +247,8 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
              data_options=None) -> Diagnosis:
     """Diagnose ``data`` (a HammerMeasurement, DecayRateMeasurement/Table, a list of them or
     DiagnosisData) with track model ``model``; ``effects``: names from the library
-    (default all); ``base``: the spec whose other values are kept (default the site
+    (default all but those with ``screened=False``, e.g. random_support; "all": every
+    one); ``base``: the spec whose other values are kept (default the site
     preset with point-like supports, pad_length = 0); ``data_options``: to
     railfem.diagnosis.data.prepare (e.g. f_range=(50, 2000), sensors=['head']). See the
     module docstring for the steps."""
@@ -260,10 +261,14 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
     # finite length is one of the effects the search can find (effects/pad_length.py)
     spec0 = base if base is not None else preset("site", pad_length=0.0)
     spec0 = spec0.replace(model=model, spacing=data.spacing)
-    names = library.names() if effects is None else tuple(effects)
+    names = library.names() if effects in (None, "all") else tuple(effects)
     for n in names:
         library.get(n)
     cands, skipped = [], {}
+    if effects is None:  # the default screen leaves out the effects that ask to be named
+        skipped.update({n: "not screened by default (minutes per refit): name it in "
+                           "effects= / --effects" for n in names if not library.get(n).screened})
+        names = tuple(n for n in names if library.get(n).screened)
     for n in names:
         ok, why = applicable(library.get(n), data, model)
         (cands.append(library.get(n)) if ok else skipped.__setitem__(n, why))
@@ -323,10 +328,15 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
             skipped[e.name] = f"refit failed: {exc}"
             log.warning("diagnosis: %s failed: %s", e.name, exc)
             continue
-        if profile_final and not wfe:  # the base's rail loss absorbed part of the effect
+        # the base's rail loss absorbed part of the effect: profile it (random effects,
+        # with tens of parameters, only if chosen)
+        many = len(e.continuous) > MAX_GRID_START
+        if profile_final and not wfe and not many:
             o = profile_eta_r(data, ev, spec_b, (e,), o, scale, max_steps=6, refine=False)
-            if e.kind == "spec" and any(n != "index" for n in e.grid):
+            if (e.kind == "spec" and any(n != "index" for n in e.grid)
+                    and o.bic < base_o.bic):
                 # a kernel grid (pad length) trades against the rail loss: profile both
+                # (tens of kernels: only for a candidate that already beats the base)
                 o2 = joint_profile(data, ev, spec_b, e, o, scale, grid_values(e, data, model))
                 o = o2 if o2.cost < o.cost else o
         gate = held_gate(base_o, o, pred_ref=pred_base)

@@ -38,6 +38,7 @@ CHI2_95 = 3.841
 REFINE_STEPS = 4  # parabolic steps of a numeric grid parameter (each a new kernel)
 ETA_R_LATTICE = 0.05  # decades between the rail-loss kernels of a profile
 MIN_SCALE = 0.1  # dB
+MAX_GRID_START = 4  # effect parameters up to which starts are a 3-value grid
 FAR = 60.0  # dB: the residual of a model entry that is not finite
 
 
@@ -103,23 +104,75 @@ class Problem:
     def predict(self, x) -> dict:
         """{record name: receptance (nf, n_out, n_pos)} as the data would show it."""
         th = self.thetas(x)
-        base = self.base_spec(x)
+        return {r.name: self._measured(self.evaluator.receptance(*self._where(x, th, r)),
+                                       th, r) for r in self.data.records}
+
+    def _where(self, x, th, r):
+        """(spec, record, shift) the evaluator is asked for: base, spec and geometry
+        effects applied."""
+        spec, shift = self.base_spec(x), [0.0, 0.0]
+        for e in self.effects:
+            if e.kind in ("spec", "campaign"):
+                spec = e.apply(spec, th[e.name], r)
+            elif e.kind == "geometry":
+                ds, dh = e.geometry(th[e.name], r)
+                shift[0] += ds
+                shift[1] += dh
+        return spec, r, tuple(shift)
+
+    def _measured(self, a, th, r):
+        for e in self.effects:
+            if e.kind == "measurement":
+                a = e.apply_measurement(a, th[e.name], r)
+        return a
+
+    def _tangent_parameters(self) -> dict:
+        """{vector index: (support index, 'kp' | 'kb')} of the parameters that are the
+        log10 of a support's factor (Effect.deviation_of)."""
         out = {}
-        for r in self.data.records:
-            spec, shift = base, [0.0, 0.0]
-            for e in self.effects:
-                if e.kind in ("spec", "campaign"):
-                    spec = e.apply(spec, th[e.name], r)
-                elif e.kind == "geometry":
-                    ds, dh = e.geometry(th[e.name], r)
-                    shift[0] += ds
-                    shift[1] += dh
-            a = self.evaluator.receptance(spec, r, tuple(shift))
-            for e in self.effects:
-                if e.kind == "measurement":
-                    a = e.apply_measurement(a, th[e.name], r)
-            out[r.name] = a
+        for i, p in enumerate(self.box.parameters[len(BASE):], start=len(BASE)):
+            e, n = p.name.split(".", 1)
+            eff = next(x for x in self.effects if x.name == e)
+            if eff.deviation_of is not None:
+                out[i] = eff.deviation_of(n)
         return out
+
+    def jacobian(self, x, h: float = 1e-7) -> np.ndarray:
+        """d residual / dx: forward differences, except for the support factors of a
+        random effect, whose receptance derivative the evaluator gives in closed form
+        (one Woodbury solve for all of them; the residual is then differenced along it)."""
+        x = np.asarray(x, dtype=float)
+        lo, hi = self.box.lower, self.box.upper
+        th = self.thetas(x)
+        tp = self._tangent_parameters()
+        got = {r.name: self.evaluator.tangents(*self._where(x, th, r)[:2])
+               for r in self.data.records} if tp else {}
+        if any(v is None for v in got.values()):
+            tp, got = {}, {}
+        a0 = ({k: v[0] for k, v in got.items()} if got else
+              {r.name: self.evaluator.receptance(*self._where(x, th, r))
+               for r in self.data.records})
+        pred0 = {r.name: self._measured(a0[r.name], th, r) for r in self.data.records}
+        r0 = self.residual(x, prediction=pred0)
+        J = np.empty((len(r0), len(x)))
+        for i in range(len(x)):
+            step = h * max(1.0, abs(x[i]))
+            step = step if x[i] + step <= hi[i] else -step
+            xi = x.copy()
+            xi[i] += step
+            if i in tp:  # along the closed-form tangent (log10 -> ln: a factor ln 10)
+                thi = self.thetas(xi)
+                pred = {r.name: self._measured(a0[r.name] + step * math.log(10)
+                                               * got[r.name][1][tp[i]], thi, r)
+                        for r in self.data.records}
+                J[:, i] = (self.residual(xi, prediction=pred) - r0) / step
+            else:
+                J[:, i] = (self.residual(xi) - r0) / step
+        return J
+
+    @property
+    def analytic(self) -> bool:
+        return any(e.deviation_of is not None for e in self.effects)
 
     def groups(self, x, part="fit", prediction=None) -> list:
         """[(record, quantity, residual array)] unscaled, model - measurement (dB)."""
@@ -134,8 +187,21 @@ class Problem:
         return out
 
     def residual(self, x, part="fit", prediction=None) -> np.ndarray:
-        return np.concatenate([v / self.scale.get(q, 1.0)
-                               for _, q, v in self.groups(x, part, prediction)])
+        """Scaled residuals of ``part``; on the fitted part followed by the effects' prior
+        entries (Effect.prior: random effects shrunk towards their mean)."""
+        r = [v / self.scale.get(q, 1.0) for _, q, v in self.groups(x, part, prediction)]
+        if part == "fit":
+            r += self.prior(x)
+        return np.concatenate(r)
+
+    def prior(self, x) -> list:
+        th = self.thetas(x)
+        return [np.asarray(e.prior(th[e.name]), dtype=float) for e in self.effects
+                if e.prior is not None]
+
+    def n_prior(self) -> int:
+        x = np.zeros(len(self.box.parameters))
+        return sum(len(p) for p in self.prior(x))
 
     def cost(self, x) -> float:
         r = self.residual(x)
@@ -231,6 +297,7 @@ def _solve(problem: Problem, x0, max_nfev=200):
     lo, hi = problem.box.lower, problem.box.upper
     x0 = np.clip(np.asarray(x0, dtype=float), lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
     res = least_squares(problem.residual, x0, bounds=(lo, hi), method="trf",
+                        jac=problem.jacobian if problem.analytic else "2-point",
                         xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=max_nfev)
     return res.x, float(2 * res.cost), res.jac
 
@@ -238,10 +305,15 @@ def _solve(problem: Problem, x0, max_nfev=200):
 def _starts(problem: Problem, x_base, n_keep: int):
     """Start vectors: the base estimate with every combination of 3 values per effect
     parameter (20 %, its declared start, 80 % of its range in vector units), the best
-    n_keep by cost."""
+    n_keep by cost; with more than MAX_GRID_START effect parameters the declared starts
+    alone."""
     eff = problem.box.parameters[len(BASE):]
     if not eff:
         return [np.asarray(x_base, dtype=float)]
+    if len(eff) > MAX_GRID_START:  # many parameters (random effects): the declared starts
+        declared = [p.parameter().encode(p.start) for e in problem.effects
+                    for p in e.continuous]
+        return [np.concatenate([x_base, declared])]
     lo, hi = problem.box.lower[len(BASE):], problem.box.upper[len(BASE):]
     declared = []
     for e in problem.effects:
@@ -351,7 +423,8 @@ def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
         prof.update(interval_from_profile(prof, s2))
     k = len(x) + len(keys) + 1  # + the rail loss factor (fitted with the base)
     return Outcome(effects=effects, grid=dict(zip(keys, best)), x=x,
-                   eta_r=float(spec.rail.eta), cost=c, n=len(r), k=k, problem=pb,
+                   eta_r=float(spec.rail.eta), cost=c, n=len(r) - pb.n_prior(), k=k,
+                   problem=pb,
                    analysis=analysis, grid_profiles=profiles)
 
 
@@ -482,9 +555,10 @@ def profile_eta_r(data, evaluator, spec, effects, outcome: Outcome, scale, *,
         s_ = spec.replace(eta_r=10 ** le)
         o = refit(data, evaluator, s_, effects, near.x[:len(BASE)], scale, grid_values=grid,
                   refine=False, bounds=bounds, x_start=near.x)
-        fresh = refit(data, evaluator, s_, effects, near.x[:len(BASE)], scale,
-                      grid_values=grid, refine=False, bounds=bounds)  # multi-start as well
-        o = fresh if fresh.cost < o.cost else o
+        if len(o.x) - len(BASE) <= MAX_GRID_START:  # multi-start as well (not for
+            fresh = refit(data, evaluator, s_, effects, near.x[:len(BASE)], scale,  # random
+                          grid_values=grid, refine=False, bounds=bounds)  # effects)
+            o = fresh if fresh.cost < o.cost else o
         o.grid_profiles = outcome.grid_profiles
         done[le] = o
         return o
@@ -550,6 +624,8 @@ def _joint_uncertainty(best: Outcome, done: dict) -> None:
 
 
 def _jacobian(problem: Problem, x, h: float = 1e-6) -> np.ndarray:
+    if problem.analytic:
+        return problem.jacobian(x)
     lo, hi = problem.box.lower, problem.box.upper
     cols = []
     for i in range(len(x)):

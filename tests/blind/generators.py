@@ -94,7 +94,32 @@ CASES = {
     "temperature": {"a": 0.03},
     "preload": {"n_p": 0.8, "n_b": 0.5},
     "rail_stiffness": {"E": 1.75e11},  # outside the library: a softer rail
+    # every support's pad and ballast stiffness scattered (lognormal, SD of ln)
+    "random_support": {"sd_kp": 0.15, "sd_kb": 0.3},
 }
+RANDOM_SPAN = range(-65, 66)  # supports scattered by random_support (the default 131)
+
+
+def random_factors(seed: int, p=CASES["random_support"]) -> dict:
+    """{support index: (kp factor, kb factor)} of the random_support case, seed-drawn from
+    a stream of its own (not the noise's)."""
+    rng = np.random.default_rng(10_000 + seed)
+    z = rng.standard_normal((len(RANDOM_SPAN), 2))
+    return {i: (float(np.exp(p["sd_kp"] * a)), float(np.exp(p["sd_kb"] * b)))
+            for i, (a, b) in zip(RANDOM_SPAN, z)}
+
+
+def truth(case: str, seed: int) -> dict:
+    """The parameters of the case the diagnosis should recover (named as its effect names
+    them); for random_support the realised factors near the sensor (supports -2..8)."""
+    if case != "random_support":
+        return dict(CASES[case])
+    out = dict(CASES[case])
+    for i, (kp, kb) in random_factors(seed).items():
+        if -2 <= i <= 8:
+            tag = f"{'m' if i < 0 else ''}{abs(i)}"
+            out[f"kp_{tag}"], out[f"kb_{tag}"] = kp, kb
+    return out
 
 
 def dataset(case: str, seed: int, f=None, outputs=("head",), model=MODEL):
@@ -114,6 +139,10 @@ def dataset(case: str, seed: int, f=None, outputs=("head",), model=MODEL):
                                                     eta=p["eta_a"]))
     elif case == "pad_length":
         spec = spec.replace(pad_length=p["pad_length"])
+    elif case == "random_support":
+        spec = spec.replace(deviations=tuple(
+            SupportDeviation(index=i, kp=kp, kb=kb)
+            for i, (kp, kb) in random_factors(seed, p).items()))
     elif case == "voided_sleeper":
         spec = spec.replace(deviations=(SupportDeviation(index=p["index"],
                                                          kb=p["kb_factor"]),))

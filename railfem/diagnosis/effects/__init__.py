@@ -19,6 +19,14 @@ enters the model in one of four ways (``Effect.kind``):
 differentiated: the refit profiles over the listed values (each a new kernel or a discrete
 choice such as a support index); a grid may also be categorical (which sensor) and then
 has no EffectParameter. A numeric grid value may be refined between its best neighbours.
+
+``prior(theta) -> array`` (optional) adds dimensionless residual entries to the fit: a
+Gaussian prior that shrinks weakly identified parameters towards their mean (random
+effects, e.g. the stiffness of each support of a randomly inhomogeneous track).
+``deviation_of(name) -> (support index, 'kp' | 'kb')`` says that a parameter is the factor
+on that support's stiffness (log scale): the refit then differentiates it in closed form.
+``screened=False`` leaves an effect out of the default search (it must be named): for
+effects whose refit costs minutes (tens of parameters).
 """
 from __future__ import annotations
 
@@ -71,6 +79,9 @@ class Effect:
     apply: Callable | None = None
     apply_measurement: Callable | None = None
     geometry: Callable | None = None
+    prior: Callable | None = None
+    screened: bool = True  # False: too costly for the default screen; named on request
+    deviation_of: Callable | None = None  # parameter name -> (support index, 'kp' | 'kb')
     grid: dict = field(default_factory=dict)
     needs: tuple[str, ...] = ()
     quantities: tuple[str, ...] = ("point", "phase", "transfer", "tdr")
@@ -102,6 +113,7 @@ class Effect:
                                 "upper": p.upper, "scale": "log10" if p.log else "linear",
                                 "meaning": p.meaning} for p in self.parameters],
                 "grid": {k: list(v) for k, v in self.grid.items()},
+                "screened_by_default": self.screened,
                 "needs": list(self.needs)}
 
 

@@ -1,0 +1,64 @@
+"""Random support inhomogeneity: every support's pad and ballast stiffness scatter from
+the track's mean (railfem.spec.SupportDeviation on kp and kb at each support the hammer
+test sees).
+
+Real tracks are not periodic: pads differ within their production tolerance and the
+ballast bed under each sleeper is compacted differently. A hammer test sees one
+realisation of that scatter, mostly at the supports between the sensor and a few metres
+away: the rail-on-pad resonance is split and smeared, the near transfers change from
+position to position. The effect fits the realisation at the supports INDICES (a factor
+on kp and on kb each) as random effects: a Gaussian prior on ln(factor) with standard
+deviation PRIOR_SD (Effect.prior) shrinks the supports the data hardly see towards the
+mean, so the fit stays well posed. Supports beyond the window keep the mean stiffness;
+their scatter stays in the residual. The scatter itself is the RMS of the fitted
+ln-factors (report it as the track's coefficient of variation, a lower bound: shrinkage
+pulls weakly seen supports in). Twenty-two parameters make a refit cost minutes: the
+default search leaves it out (screened=False); name it (effects=[..., "random_support"],
+``--effects``) to screen it."""
+import numpy as np
+
+from railfem.diagnosis.effects import Effect, EffectParameter
+from railfem.spec import SupportDeviation
+
+INDICES = tuple(range(-2, 9))  # the sensor sits between supports 0 and 1
+PRIOR_SD = {"kp": 0.3, "kb": 0.5}  # ln units: pads within production tolerance, ballast
+
+
+def name(which: str, index: int) -> str:
+    return f"{which}_{'m' if index < 0 else ''}{abs(index)}"
+
+
+def apply(spec, theta, record=None):
+    devs = tuple(SupportDeviation(index=i, kp=float(theta[name("kp", i)]),
+                                  kb=float(theta[name("kb", i)])) for i in INDICES)
+    others = tuple(d for d in spec.deviations if d.index not in INDICES)
+    return spec.replace(deviations=others + devs)
+
+
+def deviation_of(parameter: str) -> tuple[int, str]:
+    which, tag = parameter.split("_")
+    return (-int(tag[1:]) if tag.startswith("m") else int(tag)), which
+
+
+def prior(theta):
+    return np.array([np.log(theta[name(w, i)]) / PRIOR_SD[w] for w in ("kp", "kb")
+                     for i in INDICES])
+
+
+def scatter(theta) -> dict:
+    """RMS of the fitted ln-factors per stiffness (the realised scatter, shrunk)."""
+    return {w: float(np.sqrt(np.mean([np.log(theta[name(w, i)]) ** 2 for i in INDICES])))
+            for w in ("kp", "kb")}
+
+
+EFFECT = Effect(
+    name="random_support", title="random support inhomogeneity (pad and ballast scatter)",
+    kind="spec", apply=apply, prior=prior, screened=False, deviation_of=deviation_of,
+    meaning="pad and ballast stiffness differ from support to support; the hammer test "
+            "sees the realisation near the sensor",
+    parameters=tuple(
+        EffectParameter(name=name(w, i), unit="-", lower=0.1, upper=10.0, log=True,
+                        start=1.0, meaning=f"{'pad' if w == 'kp' else 'ballast'} stiffness "
+                                           f"of support {i} over the mean")
+        for w in ("kp", "kb") for i in INDICES),
+    needs=("discrete", "deviations"))
