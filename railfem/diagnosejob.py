@@ -60,20 +60,37 @@ def groups_of(items, group: str | None):
 def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
                  group: str | None = "section,date", spacing: float = 0.6, effects=None,
                  n_starts: int = 4, workers: int = 1, cache=None, campaign: bool = True,
-                 command: str = "") -> dict:
-    """Diagnose DATA and write the report(s) to ``out_dir``; returns the run record."""
+                 passby: dict | None = None, command: str = "") -> dict:
+    """Diagnose DATA and write the report(s) to ``out_dir``; returns the run record.
+    DATA: a hammer dataset folder or descriptor, a decay-rate table, or a list of pass-by
+    recordings (``passby``: options of passby_rows)."""
     from .fitjob import read_data
 
     t0 = time.perf_counter()
-    if effects is not None:
+    if effects not in (None, "all"):
         for n in effects:
             library.get(n)
+    paths = [Path(p) for p in (data if isinstance(data, (list, tuple)) else [data])]
+    recs = [p for p in paths if p.suffix.lower() in RECORDING_SUFFIXES]
+    if recs and len(recs) != len(paths):
+        raise ValueError(f"DATA mixes pass-by recordings ({', '.join(map(str, recs))}) with "
+                         "other data; diagnose them separately")
+    if not recs and len(paths) != 1:
+        raise ValueError(f"{len(paths)} DATA given: several are allowed for pass-by "
+                         "recordings (.npz/.wav) only; give one dataset folder, descriptor "
+                         "or decay-rate table")
+    if recs:
+        kind, items = "passby", passby_rows(recs, **(passby or {}))
+    else:
+        data = paths[0]
+        kind, items = read_data(data, select=select, campaign=True) if not data.is_dir() \
+            and data.suffix.lower() != ".toml" else read_data(data)
     out = prepare_output_dir(out_dir, "diagnose")
-    kind, items = read_data(data, select=select, campaign=True) if not Path(data).is_dir() \
-        and Path(data).suffix.lower() != ".toml" else read_data(data)
     jobs = []
     if kind == "hammer":
         jobs.append(("", items))
+    elif kind == "passby":
+        jobs.append(("passby", items))
     else:
         rows = [(i, m) for i, m in items if m.direction == "z"]
         if not rows:
@@ -83,7 +100,8 @@ def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
         temps = [m.metadata.temperature_c for _, m in rows]
         if campaign and len(jobs) > 1 and None not in temps and max(temps) - min(temps) >= 5:
             jobs.append(("all", [m for _, m in rows]))
-    record = {"command": "diagnose", "argv": command, "data": str(data), "model": model,
+    record = {"command": "diagnose", "argv": command, "data": [str(p) for p in paths]
+              if recs else str(data), "model": model,
               "kind": kind, "groups": []}
     opts = dict(model=model, n_starts=n_starts, workers=workers, cache=cache,
                 effects=effects)
@@ -91,7 +109,7 @@ def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
         sub = out / name if name else out
         log.info("diagnose: %s (%d record(s))", name or "hammer test", len(ms))
         d = loop.diagnose(ms, spacing=None if kind == "hammer" else spacing, **opts)
-        files = write_report(sub, d, title=name or Path(data).name)
+        files = write_report(sub, d, title=name or Path(paths[0]).name)
         record["groups"].append({"name": name or "hammer", "records": len(ms),
                                  "verdict": d.verdict, "statement": d.statement,
                                  "chosen": d.chosen.name if d.chosen else None,
@@ -99,6 +117,26 @@ def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
     record["runtime_s"] = time.perf_counter() - t0
     write_text(out / "run.json", json.dumps(record, indent=2, default=_json) + "\n")
     return record
+
+
+RECORDING_SUFFIXES = (".npz", ".wav")
+
+
+def passby_rows(paths, *, method: str = "energy", channel: str | None = None,
+                speed: float | None = None, axle_spacing: float | None = None,
+                f_low: float = 100.0, f_high: float = 5000.0) -> list:
+    """Pass-by recordings -> one decay-rate record per pass-by (railfem.estimators.passby,
+    ``method`` 'energy' or 'slope'), the sensor location taken from the recordings."""
+    from .diagnosis.data import PASSBY_METHODS, passby_decay_rates
+    from .estimators.passby import PassbyOptions, passby_decay_rate
+    from .io.recording import read_rail_recordings
+
+    if method not in PASSBY_METHODS:
+        raise ValueError(f"--passby-method {method!r}: use one of {PASSBY_METHODS}")
+    opts = PassbyOptions(f_low=f_low, f_high=f_high)
+    recordings, where = read_rail_recordings(paths, channel)
+    res = passby_decay_rate(recordings, opts, speed=speed, axle_spacing=axle_spacing)
+    return passby_decay_rates(res, method=method, sensor=where)
 
 
 # ------------------------------------------------------------------ the report

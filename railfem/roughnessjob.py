@@ -135,7 +135,7 @@ def run_roughness(recordings, out_dir, *, track: str, method: str = "full",
     from .estimators.passby import PassbyOptions, passby_decay_rate
     from .estimators.passby_level import passby_level
     from .identify import roughness as RM
-    from .io.recording import read_recording
+    from .io.recording import read_rail_recordings
     from .passbyjob import make_wheel
     from .simulate import passby as P
     from .standards.iec61260 import ninth_octave_grid, third_octave_bands
@@ -160,13 +160,7 @@ def run_roughness(recordings, out_dir, *, track: str, method: str = "full",
     if not paths:
         raise ValueError("give at least one pass-by recording")
     spec = resolve_track(track, model)
-    recs = [read_recording(p).select(channel) for p in paths]
-    locations = {r.channel.location for r in recs}
-    if len(locations) != 1 or not locations <= {"foot", "head"}:
-        raise ValueError(f"the recordings' sensor locations are {sorted(locations)}: give "
-                         "recordings of one sensor on the rail 'foot' or 'head' (the channel "
-                         "location in the metadata)")
-    location = locations.pop()
+    recs, location = read_rail_recordings(paths, channel)
     bands = third_octave_bands(f_low, f_high)
     f = ninth_octave_grid(f_low, f_high)
     out = prepare_output_dir(out_dir, COMMAND)

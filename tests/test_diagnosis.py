@@ -234,6 +234,45 @@ def test_bad_input_is_named_before_computing():
         prepare(table)
 
 
+def test_passby_decay_rates_become_repeated_records():
+    """A pass-by result (the estimator's per-pass-by values) becomes one decay-rate record
+    per pass-by, taken at the recordings' sensor, the pass-bys repeats of each other; a
+    pass-by with too few accepted bands makes it one pooled record; the method is checked."""
+    from types import SimpleNamespace
+
+    from railfem.diagnosis.data import MIN_PASSBY_BANDS, passby_decay_rates
+    from railfem.standards.iec61260 import third_octave_bands
+
+    bands = third_octave_bands(100.0, 1000.0)
+    per = np.vstack([np.linspace(8.0, 2.0, len(bands)), np.linspace(9.0, 2.5, len(bands))])
+    per[1, 3] = np.nan
+    est = SimpleNamespace(per_passby=per, decay_rate=per.mean(axis=0))
+    res = SimpleNamespace(bands=bands, energy=est, slope=est, names=("a.npz", "b.npz"))
+    rows = passby_decay_rates(res, sensor="foot")
+    assert [r.metadata.rail_side for r in rows] == ["a.npz", "b.npz"]
+    assert all(r.sensor == "foot" and r.metadata.section == "pass-by" for r in rows)
+    assert np.isnan(rows[1].decay_rate[3]) and rows[0].decay_rate[3] == per[0, 3]
+    data = prepare(rows, spacing=0.6)
+    assert [r.fit.outputs for r in data.records] == [("foot",), ("foot",)]
+    assert R.repeat_scatter(data)  # the two pass-bys are repeats
+    per[1, MIN_PASSBY_BANDS - 1:] = np.nan
+    pooled = passby_decay_rates(res)
+    assert len(pooled) == 1 and "pooled" in pooled[0].metadata.rail_side
+    with pytest.raises(ValueError, match="pass-by method 'mean'"):
+        passby_decay_rates(res, method="mean")
+
+
+def test_diagnose_job_refuses_mixed_or_several_data(tmp_path):
+    from railfem.diagnosejob import run_diagnose
+
+    (tmp_path / "a.npz").write_bytes(b"")
+    with pytest.raises(ValueError, match="mixes pass-by recordings"):
+        run_diagnose([tmp_path / "a.npz", tmp_path], tmp_path / "out")
+    with pytest.raises(ValueError, match="several are allowed for pass-by"):
+        run_diagnose([tmp_path, tmp_path], tmp_path / "out")
+    assert not (tmp_path / "out").exists()  # refused before anything was written
+
+
 def test_diagnose_cli_writes_report(tmp_path):
     from railfem.io import write_dataset
 
@@ -256,6 +295,28 @@ def test_diagnose_cli_writes_report(tmp_path):
                           "--effects", "pad_size", "--out", str(tmp_path / "bad")],
                          capture_output=True, text=True, timeout=120)
     assert bad.returncode != 0 and "unknown effect 'pad_size'" in bad.stderr
+
+
+def test_diagnose_cli_on_passby_recordings(tmp_path):
+    """Pass-by recordings in (written as files, the truth apart), the decay rates estimated
+    by the pass-by estimator and diagnosed: the report is written, its records are the
+    pass-bys at the foot sensor; clean data (no effect) -> no effect claimed."""
+    from railfem.io.recording import write_recording
+
+    paths = []
+    for k, rec in enumerate(g.passby_recordings("none", 0, speeds=(30.0, 40.0))):
+        paths.append(write_recording(tmp_path / f"pb{k}", rec)["data"])
+    out = tmp_path / "out"
+    r = subprocess.run([sys.executable, "-m", "railfem.cli", "diagnose", *map(str, paths),
+                        "--model", "timoshenko-discrete", "--effects", "rail_damper",
+                        "--starts", "2", "--f-low", "200", "--f-high", "2500",
+                        "--out", str(out)], capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stderr
+    s = json.loads((out / "passby" / "diagnosis.json").read_text())
+    assert s["verdict"] != "explained" and s["chosen"] is None
+    assert all(rec["kind"] == "tdr" for rec in s["data"]["records"])
+    run = json.loads((out / "run.json").read_text())
+    assert run["kind"] == "passby" and len(run["data"]) == 2
 
 
 def test_decay_rate_campaign_finds_the_temperature_effect():

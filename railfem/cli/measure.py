@@ -9,6 +9,17 @@ from .common import count, finite, index, non_negative, positive, report_written
 
 
 # ------------------------------------------------------------ pass-by decay rate
+def recording_args(p: argparse.ArgumentParser, prefix: str = "") -> None:
+    """The options that say what the recordings do not: speed, axle spacing, channel."""
+    p.add_argument("--speed", type=positive, default=None, metavar="M/S",
+                   help=f"{prefix}train speed in m/s (overrides the metadata)")
+    p.add_argument("--axle-spacing", type=positive, default=None, metavar="M",
+                   help=f"{prefix}bogie axle spacing in m, to find the speed when it is not "
+                        "known")
+    p.add_argument("--channel", default=None, metavar="NAME",
+                   help=f"{prefix}channel of multi-channel 'railfem passby' recordings")
+
+
 def tdr_passby_args(p: argparse.ArgumentParser) -> None:
     p.set_defaults(_run=tdr_passby_run)
     p.add_argument("recordings", nargs="+", type=Path, metavar="RECORDING",
@@ -16,12 +27,7 @@ def tdr_passby_args(p: argparse.ArgumentParser) -> None:
                         "metadata file of the same name (quantity, fs_hz, speed_m_s, ...)")
     p.add_argument("--f-low", type=positive, default=100.0, help="lowest band (Hz)")
     p.add_argument("--f-high", type=positive, default=5000.0, help="highest band (Hz)")
-    p.add_argument("--speed", type=positive, default=None, metavar="M/S",
-                   help="train speed in m/s (overrides the metadata)")
-    p.add_argument("--axle-spacing", type=positive, default=None, metavar="M",
-                   help="bogie axle spacing in m, to find the speed when it is not known")
-    p.add_argument("--channel", default=None, metavar="NAME",
-                   help="channel of multi-channel 'railfem passby' recordings")
+    recording_args(p)
     p.add_argument("--l1", type=positive, default=1.0, metavar="M",
                    help="energy window around each wheel, m (default 1)")
     p.add_argument("--l3-low", type=positive, default=0.6, metavar="M",
@@ -103,8 +109,9 @@ def fit_args(p: argparse.ArgumentParser) -> None:
     from ..identify.fit import DEFAULT_PARAMETERS
     from ..spec import MODELS
 
-    p.add_argument("data", type=Path, metavar="DATA",
-                   help="hammer dataset folder / .toml descriptor, or a decay-rate table .csv")
+    p.add_argument("data", type=Path, nargs="+", metavar="DATA",
+                   help="hammer dataset folder / .toml descriptor, a decay-rate table .csv, "
+                        "or pass-by recordings (.npz/.wav with their metadata files)")
     p.add_argument("--model", choices=MODELS, default="wfe-discrete",
                    help="track model (default wfe-discrete)")
     p.add_argument("--use", default=None, metavar="Q,Q",
@@ -166,8 +173,9 @@ def fit_run(args) -> int:
 def diagnose_args(p: argparse.ArgumentParser) -> None:
     from ..spec import MODELS
 
-    p.add_argument("data", type=Path, metavar="DATA",
-                   help="hammer dataset folder / .toml descriptor, or a decay-rate table .csv")
+    p.add_argument("data", type=Path, nargs="+", metavar="DATA",
+                   help="hammer dataset folder / .toml descriptor, a decay-rate table .csv, "
+                        "or pass-by recordings (.npz/.wav with their metadata files)")
     p.add_argument("--model", choices=MODELS, default="wfe-discrete",
                    help="track model (default wfe-discrete)")
     p.add_argument("--effects", default=None, metavar="E,E",
@@ -178,7 +186,13 @@ def diagnose_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--group", default="section,date", metavar="K,K",
                    help="table: diagnose rows grouped by these keys (default section,date)")
     p.add_argument("--spacing", type=positive, default=0.6, metavar="M",
-                   help="table: sleeper spacing in m (default 0.6)")
+                   help="table, pass-by: sleeper spacing in m (default 0.6)")
+    p.add_argument("--passby-method", choices=("energy", "slope"), default="energy",
+                   help="pass-by: decay-rate estimator (default energy iteration)")
+    recording_args(p, "pass-by: ")
+    p.add_argument("--f-low", type=positive, default=100.0, help="pass-by: lowest band (Hz)")
+    p.add_argument("--f-high", type=positive, default=5000.0,
+                   help="pass-by: highest band (Hz)")
     p.add_argument("--starts", type=count, default=4, metavar="N",
                    help="multi-start points of the base fit (default 4)")
     p.add_argument("--workers", type=count, default=1, metavar="N",
@@ -193,9 +207,12 @@ def diagnose_run(args) -> int:
     effects = ([x.strip() for x in args.effects.split(",") if x.strip()]
                if args.effects else None)
     effects = "all" if effects == ["all"] else effects
+    passby = dict(method=args.passby_method, channel=args.channel, speed=args.speed,
+                  axle_spacing=args.axle_spacing, f_low=args.f_low, f_high=args.f_high)
     s = run_diagnose(args.data, args.out, model=args.model, select=args.select,
                      group=args.group, spacing=args.spacing, effects=effects,
-                     n_starts=args.starts, workers=args.workers, command=" ".join(sys.argv))
+                     n_starts=args.starts, workers=args.workers, passby=passby,
+                     command=" ".join(sys.argv))
     for g in s["groups"]:
         sys.stdout.write(f"{g['name']}: {g['statement']}\n")
     report_written([Path(args.out) / "run.json"])

@@ -8,6 +8,9 @@ parts, with the covariates (temperature, static load) campaign effects need.
   positions (EN 15461), so the held-out transfers enter the fit only through it;
 * a decay rate per band (DecayRateMeasurement, a row of a table): every third band
   (the 2nd, 5th, 8th, ...) is held out;
+* pass-by decay rates (railfem.estimators.passby.PassbyDecayRate, the estimators' result
+  on recordings): one decay-rate record per pass-by (``passby_decay_rates``), repeats of
+  each other, every third band held out as for a table row;
 * several records (a DecayRateTable, or a list of measurements): one track fitted to all
   of them at once; campaign effects (railfem.diagnosis.effects.temperature, .preload) let
   a parameter follow each record's covariate.
@@ -21,6 +24,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from railfem.estimators.passby import PassbyDecayRate
 from railfem.identify import data as fdata
 from railfem.measurement import (DecayRateMeasurement, DecayRateTable, HammerMeasurement,
                                  Metadata)
@@ -140,7 +144,10 @@ def hammer_record(meas: HammerMeasurement, name: str = "hammer", *, sensors=None
 
 def tdr_record(meas: DecayRateMeasurement, spacing: float, name: str = "tdr", *,
                hold_every: int = HOLD_EVERY, **options) -> Record:
-    """A Record of a decay rate per band: every hold_every-th band held out."""
+    """A Record of a decay rate per band: every hold_every-th band held out. The model's
+    decay rate is taken at the measurement's sensor (head or foot) when it names one."""
+    if meas.sensor in ("head", "foot"):
+        options.setdefault("sensor", meas.sensor)
     t = fdata.decay_rate_target(meas, spacing, **options)
     k = np.arange(len(t.bands))
     held = (k + 2) % hold_every == 0
@@ -155,6 +162,42 @@ def tdr_record(meas: DecayRateMeasurement, spacing: float, name: str = "tdr", *,
                   covariates=covs, held_bands=tuple(t.bands.nominal[held].tolist()))
 
 
+PASSBY_METHODS = ("energy", "slope")
+
+
+MIN_PASSBY_BANDS = 6  # valid bands a pass-by needs to be a record of its own
+
+
+def passby_decay_rates(result, *, method: str = "energy", sensor: str = "foot",
+                       section: str = "pass-by", date: str | None = None) -> list:
+    """Decay-rate records of a railfem.estimators.passby.PassbyDecayRate by ``method``
+    ('energy': energy iteration, 'slope': slope fitting; NaN where the estimator rejected
+    a band), taken at the recordings' sensor (the model's EN 15461 decay rate is evaluated
+    there): one record per pass-by when every pass-by has at least MIN_PASSBY_BANDS valid
+    bands (they share ``section`` and ``date``, so the diagnosis treats them as repeats and
+    tests the residual against their scatter), else one record of the estimate pooled over
+    the pass-bys."""
+    if method not in PASSBY_METHODS:
+        raise ValueError(f"pass-by method {method!r}: use one of {PASSBY_METHODS}")
+    est = getattr(result, method)
+    f = np.asarray(result.bands.nominal, dtype=float)
+
+    def row(d, tag):
+        d = np.asarray(d, dtype=float)
+        return DecayRateMeasurement(
+            frequency=f, decay_rate=np.where(np.isfinite(d) & (d > 0), d, np.nan),
+            direction="z", sensor=sensor,
+            metadata=Metadata(section=section, date=date, rail_side=tag,
+                              notes={"estimator": method, "passby": tag}))
+
+    per = np.asarray(est.per_passby, dtype=float)
+    if len(per) > 1 and np.all(np.sum(np.isfinite(per) & (per > 0), axis=1)
+                               >= MIN_PASSBY_BANDS):
+        return [row(d, name or f"pass-by {k}") for k, (d, name)
+                in enumerate(zip(per, result.names))]
+    return [row(est.decay_rate, f"{len(per)} pass-by(s) pooled")]
+
+
 def record_name(meta: Metadata, i: int) -> str:
     parts = [p for p in (meta.section, meta.date, meta.rail_side) if p]
     return " ".join(parts) if parts else f"row {i}"
@@ -162,7 +205,7 @@ def record_name(meta: Metadata, i: int) -> str:
 
 def prepare(data, *, spacing: float | None = None, **options) -> DiagnosisData:
     """DiagnosisData from a HammerMeasurement, a DecayRateMeasurement, a DecayRateTable
-    (vertical rows), a list of those, or DiagnosisData (returned as is). spacing: sleeper
+    (vertical rows), a PassbyDecayRate (one record per pass-by), a list of those, or DiagnosisData (returned as is). spacing: sleeper
     spacing (m) for decay rates (hammer tests carry their own)."""
     if isinstance(data, DiagnosisData):
         return data
@@ -175,8 +218,9 @@ def prepare(data, *, spacing: float | None = None, **options) -> DiagnosisData:
             spacings.append(item.sleeper_spacing)
             desc.append(f"hammer test, {len(item.positions)} positions, sensors "
                         f"{', '.join(item.sensor_names)}")
-        elif isinstance(item, (DecayRateMeasurement, DecayRateTable)):
-            rows = item.rows() if isinstance(item, DecayRateTable) else [item]
+        elif isinstance(item, (DecayRateMeasurement, DecayRateTable, PassbyDecayRate)):
+            rows = (item.rows() if isinstance(item, DecayRateTable) else
+                    passby_decay_rates(item) if isinstance(item, PassbyDecayRate) else [item])
             rows = [r for r in rows if r.direction == "z"]
             if not rows:
                 raise ValueError("the decay rates hold no vertical rows (direction 'z'/'v'); "
@@ -190,7 +234,8 @@ def prepare(data, *, spacing: float | None = None, **options) -> DiagnosisData:
             desc.append(f"{len(rows)} decay rate(s) per band")
         else:
             raise TypeError(f"cannot diagnose {type(item).__name__}: give a "
-                            "HammerMeasurement, DecayRateMeasurement or DecayRateTable")
+                            "HammerMeasurement, DecayRateMeasurement, DecayRateTable or "
+                            "PassbyDecayRate")
     if spacing is None:
         spacing = spacings[0]
     if any(abs(s - spacing) > 1e-9 for s in spacings):

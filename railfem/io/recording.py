@@ -252,6 +252,20 @@ def read_recording(path) -> Recording:
         metadata={k: v for k, v in meta.items() if k not in RESERVED})
 
 
+def read_rail_recordings(paths, channel: str | None = None) -> tuple[list, str]:
+    """(recordings, sensor location) of pass-by recordings of one sensor place on the rail:
+    each file read (``channel`` picks one of a multi-channel recording) and their channels'
+    location checked to be one of 'head' and 'foot' for all of them."""
+    recs = [read_recording(p).select(channel) for p in paths]
+    where = {r.channel.location for r in recs}
+    if len(where) != 1 or not where <= {"foot", "head"}:
+        raise ValueError(f"the recordings' sensor locations are {sorted(map(str, where))}: "
+                         "give recordings of one sensor on the rail 'foot' or 'head' (the "
+                         "channel location in the metadata; --channel picks one channel of a "
+                         "multi-channel recording)")
+    return recs, where.pop()
+
+
 def _sidecar(rec: Recording, data_name: str) -> dict:
     clash = sorted(set(rec.metadata) & RESERVED)
     if clash:

@@ -122,44 +122,88 @@ def truth(case: str, seed: int) -> dict:
     return out
 
 
+def effect_spec(case: str, seed: int = 0, model=MODEL):
+    """The truth TrackSpec of a case whose effect is in the track (None for the others:
+    measurement, geometry and campaign effects)."""
+    p = CASES[case]
+    spec = truth_spec(model)
+    if case == "none":
+        return spec
+    if case == "pad_frequency":
+        return _support(spec, pad_laws=(FractionalZener(ratio=p["ratio"], fc=p["fc"],
+                                                        alpha=0.5),))
+    if case == "foot_damping":
+        return _support(spec, pad_laws=(FootDashpot(eta_1k=p["eta_1k"]),))
+    if case == "rail_damper":
+        return _support(spec, absorber=RailAbsorber(mass=p["mass"], fa=p["fa"],
+                                                    eta=p["eta_a"]))
+    if case == "pad_length":
+        return spec.replace(pad_length=p["pad_length"])
+    if case == "voided_sleeper":
+        return spec.replace(deviations=(SupportDeviation(index=p["index"],
+                                                         kb=p["kb_factor"]),))
+    if case == "random_support":
+        return spec.replace(deviations=tuple(
+            SupportDeviation(index=i, kp=kp, kb=kb)
+            for i, (kp, kb) in random_factors(seed, p).items()))
+    if case == "rail_stiffness":
+        return spec.replace(rail=replace(spec.rail, E=p["E"]))
+    return None
+
+
 def dataset(case: str, seed: int, f=None, outputs=("head",), model=MODEL):
     """A list of measurements with ``case`` switched on (CASES), noise seeded by ``seed``."""
     f = frequencies() if f is None else f
     p = CASES[case]
-    spec = truth_spec(model)
+    if case in ("temperature", "preload"):
+        return _campaign(case, p, truth_spec(model), f, seed, outputs)
+    spec = effect_spec(case, seed, model) or truth_spec(model)
     kw = {}
-    floor = None
-    if case == "pad_frequency":
-        spec = _support(spec, pad_laws=(FractionalZener(ratio=p["ratio"], fc=p["fc"],
-                                                        alpha=0.5),))
-    elif case == "foot_damping":
-        spec = _support(spec, pad_laws=(FootDashpot(eta_1k=p["eta_1k"]),))
-    elif case == "rail_damper":
-        spec = _support(spec, absorber=RailAbsorber(mass=p["mass"], fa=p["fa"],
-                                                    eta=p["eta_a"]))
-    elif case == "pad_length":
-        spec = spec.replace(pad_length=p["pad_length"])
-    elif case == "random_support":
-        spec = spec.replace(deviations=tuple(
-            SupportDeviation(index=i, kp=kp, kb=kb)
-            for i, (kp, kb) in random_factors(seed, p).items()))
-    elif case == "voided_sleeper":
-        spec = spec.replace(deviations=(SupportDeviation(index=p["index"],
-                                                         kb=p["kb_factor"]),))
-    elif case == "sensor_position":
+    if case == "sensor_position":
         kw["sensor_shift"] = p["sensor_shift"]
     elif case == "hammer_position":
         kw["hammer_offset"] = p["hammer_offset"]
-    elif case == "noise_floor":
-        floor = p["floor_db"]
-    elif case == "rail_stiffness":
-        spec = spec.replace(rail=replace(spec.rail, E=p["E"]))
-    if case in ("temperature", "preload"):
-        return _campaign(case, p, spec, f, seed, outputs)
     Y, pos = clean(spec, f, outputs=outputs, **kw)
     if case == "sensor_resonance":
         Y = Y * mount(f, p["fs"], p["eta_s"])[:, None, None]
+    floor = p["floor_db"] if case == "noise_floor" else None
     return [measurement(noisy(Y, seed, floor_db=floor), pos, f, outputs)]
+
+
+#: pass-by generator: train speeds (m/s), sample rate, signal noise, wheel detector
+PASSBY_SPEEDS = (30.0, 40.0, 50.0)
+PASSBY_FS = 25600.0
+PASSBY_NOISE = 0.05
+PASSBY_DETECT = {"lowpass_hz": 50.0, "snr_db": 12.0}
+
+
+def passby_recordings(case: str, seed: int, model=MODEL, speeds=PASSBY_SPEEDS):
+    """Pass-by recordings (foot sensor at mid-span, rigid wheels with interaction, 24
+    wheels, a known roughness, seeded noise) of the truth track of ``case`` (a track
+    effect: effect_spec), as railfem.recording.Recording objects that know nothing of the
+    truth."""
+    from railfem import contact, roughness as R, wheels
+    from railfem.simulate import passby as P, signals
+    from railfem.simulate.train import default_train
+
+    spec = effect_spec(case, seed, model)
+    if spec is None or spec.deviations:
+        raise ValueError(f"case {case!r} has no periodic track effect for a pass-by")
+    f = iec61260.ninth_octave_grid(80.0, 6300.0)
+    tables = P.rail_tables(spec, f, cache=False)
+    hz, wheel, train = contact.hertz(), wheels.RigidWheel(mass=600.0), default_train()
+    rough = R.sloped_spectrum(0.0, 10.0, lambda_min=0.002, lambda_max=1.0)
+    out = []
+    for k, v in enumerate(speeds):
+        r = R.amplitude_at(rough, f, v) * np.sqrt(contact.filter_power("analytical", f, v, hz))
+        res = P.simulate_passby(tables, train, wheel.receptance(f),
+                                contact.contact_receptance(hz, f), r, before=20.0,
+                                after=20.0)
+        sig, truth = signals.synthesise(res, train, v, sample_rate=PASSBY_FS,
+                                        noise_fraction=PASSBY_NOISE, seed=1000 * seed + k)
+        out.append(signals.passby_recording(sig, truth, spacing=spec.spacing,
+                                            location="foot"))
+    return out
 
 
 def _campaign(case, p, spec, f, seed, outputs):
