@@ -142,7 +142,7 @@ class Problem:
         random effect, whose receptance derivative the evaluator gives in closed form
         (one Woodbury solve for all of them; the residual is then differenced along it)."""
         x = np.asarray(x, dtype=float)
-        lo, hi = self.box.lower, self.box.upper
+        hi = self.box.upper
         th = self.thetas(x)
         tp = self._tangent_parameters()
         got = {r.name: self.evaluator.tangents(*self._where(x, th, r)[:2])
