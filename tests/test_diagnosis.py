@@ -117,6 +117,26 @@ def test_random_support_closed_form_jacobian_matches_finite_differences():
         assert np.linalg.norm(J[:, i] - ref) < 1e-4 * np.linalg.norm(ref), i
 
 
+def test_joint_rail_loss_interval_when_the_best_is_the_start():
+    """profile_eta_r keeps its kernels on a lattice of log10(eta_r) rounded to 1e-6; when
+    the best rail loss is the (unrounded) start value, the finite-difference column of the
+    joint analysis must come from another kernel (it once came from the start's own key: a
+    zero column, every interval unbounded)."""
+    from railfem.diagnosis.refit import Problem, noise_scale, profile_eta_r, refit
+
+    data = prepare(g.dataset("none", 0, f=SMALL_F))
+    ev = Evaluator()
+    spec = g.truth_spec().replace(eta_r=0.020031)  # log10 not on the 1e-6 lattice
+    x0 = np.log10([400e6, 0.2, 60e6, 1.0])
+    scale = noise_scale(Problem(data=data, evaluator=ev, spec=spec, scale={}), x0)
+    o = refit(data, ev, spec, (), x0, scale)
+    best = profile_eta_r(data, ev, spec, (), o, scale, max_steps=1, refine=False)
+    assert best.eta_r == spec.rail.eta  # the start stayed best (0.05 decades either side)
+    assert min(best.analysis["singular_values"]) > 0
+    for p in best.parameters():
+        assert p["identifiable"] == "yes", p
+
+
 def test_campaign_effects_follow_the_covariate():
     from railfem.diagnosis.refit import Problem
 

@@ -606,8 +606,10 @@ def _joint_uncertainty(best: Outcome, done: dict) -> None:
     """Intervals of the other parameters with the rail loss factor free: the Jacobian gets
     a column dr/d(log10 eta_r) by a difference to the nearest other kernel (the other
     parameters held), and the analysis is redone on the extended box."""
+    # the profile's keys are log10(eta_r) rounded to 1e-6: compare on that lattice (an
+    # unrounded best value once picked its own key as the neighbour: a zero column)
     le = math.log10(best.eta_r)
-    others = [v for v in done if abs(v - le) > 1e-9]
+    others = [v for v in done if abs(v - round(le, 6)) > 5e-7]
     if not others:
         return
     nb = min(others, key=lambda v: abs(v - le))
