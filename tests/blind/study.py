@@ -2,6 +2,7 @@
 data, diagnose them without telling the diagnosis the case, and score the outcome.
 
     python -m tests.blind.study OUT.jsonl CASE[,CASE] SEEDS [all]   (e.g. 0-9)
+    python -m tests.blind.study --table OUT.jsonl                   (the markdown table)
 
 (``all``: screen every effect of the library, random_support too, which the default
 search leaves out for its cost; the case random_support is always run that way.)
@@ -89,6 +90,37 @@ def table(rows: list[dict]) -> list[dict]:
     return out
 
 
+def latest(rows: list[dict]) -> list[dict]:
+    """One row per (case, seed, effects): the last one (a re-run replaces a row)."""
+    last = {}
+    for r in rows:
+        last[(r["case"], r["seed"], r.get("effects") or "")] = r
+    return list(last.values())
+
+
+def markdown(rows: list[dict]) -> str:
+    """The study table (latest rows; the null and outside cases once per effect set)."""
+    groups: dict = {}
+    for r in latest(rows):
+        tag = " (all effects)" if r.get("effects") == "all" and r["case"] not in ALL_EFFECTS \
+            else ""
+        groups.setdefault(r["case"] + tag, []).append(r)
+    out = ["| case | seeds | ranked first | explained (right) | partly | false claims | "
+           "coverage | held-out reduction median (min) | s median |",
+           "|---|---|---|---|---|---|---|---|---|"]
+    for key, rs in groups.items():
+        case = rs[0]["case"]
+        t = table(rs)[0]
+        partly = sum(r["verdict"] == "partly explained" and r["chosen"] == case for r in rs)
+        med, mn = t["held_out_reduction_median"], t["held_out_reduction_min"]
+        red = f"{100 * med:.0f} % ({100 * mn:.0f} %)" if med is not None else "–"
+        rank = "–" if case in ("none",) + OUTSIDE else f"{t['rank1']}/{len(rs)}"
+        out.append(f"| {key} | {len(rs)} | {rank} | {t['explained']}/{len(rs)} | {partly} | "
+                   f"{t['false_claims']} | {t['coverage']} | {red} | "
+                   f"{t['seconds_median']:.0f} |")
+    return "\n".join(out)
+
+
 def _seeds(text: str):
     if "-" in text:
         a, b = text.split("-")
@@ -98,6 +130,11 @@ def _seeds(text: str):
 
 if __name__ == "__main__":
     import logging
+
+    if sys.argv[1] == "--table":  # python -m tests.blind.study --table RESULTS.jsonl
+        with open(sys.argv[2], encoding="utf-8") as fh:
+            print(markdown([json.loads(line) for line in fh]))
+        sys.exit(0)
 
     logging.basicConfig(level=logging.WARNING)
     path, cases, seeds = sys.argv[1], sys.argv[2].split(","), _seeds(sys.argv[3])
