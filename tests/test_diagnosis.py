@@ -52,7 +52,7 @@ def small_record():
 def test_each_effect_changes_what_the_model_predicts(name, small_record):
     """apply / geometry / apply_measurement at the declared start values move the
     prediction away from the base model's by more than a tenth of a dB somewhere."""
-    from railfem.diagnosis.refit import Problem
+    from railfem.diagnosis.problem import Problem
 
     e = effects.get(name)
     spec = g.truth_spec()
@@ -99,7 +99,7 @@ def test_random_support_closed_form_jacobian_matches_finite_differences():
     """The refit's Jacobian for the support factors of random_support (closed-form Woodbury
     derivative of the receptance, then the residual along it) against central differences
     of the whole residual (every quantity, the prior rows included)."""
-    from railfem.diagnosis.refit import Problem
+    from railfem.diagnosis.problem import Problem
 
     data = prepare(g.dataset("random_support", 0, f=SMALL_F))
     e = effects.get("random_support")
@@ -122,7 +122,8 @@ def test_joint_rail_loss_interval_when_the_best_is_the_start():
     the best rail loss is the (unrounded) start value, the finite-difference column of the
     joint analysis must come from another kernel (it once came from the start's own key: a
     zero column, every interval unbounded)."""
-    from railfem.diagnosis.refit import Problem, noise_scale, profile_eta_r, refit
+    from railfem.diagnosis.problem import Problem, noise_scale
+    from railfem.diagnosis.refit import profile_eta_r, refit
 
     data = prepare(g.dataset("none", 0, f=SMALL_F))
     ev = Evaluator()
@@ -138,7 +139,7 @@ def test_joint_rail_loss_interval_when_the_best_is_the_start():
 
 
 def test_campaign_effects_follow_the_covariate():
-    from railfem.diagnosis.refit import Problem
+    from railfem.diagnosis.problem import Problem
 
     data = prepare(g.dataset("temperature", 0, f=SMALL_F))
     assert [r.covariate("temperature_c") for r in data.records] == [(0.0, 15.0), (15.0, 15.0),

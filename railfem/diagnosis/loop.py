@@ -44,9 +44,10 @@ from railfem.diagnosis import effects as library
 from railfem.diagnosis import residual as resid
 from railfem.diagnosis.data import DiagnosisData, prepare
 from railfem.diagnosis.evaluate import Evaluator
-from railfem.diagnosis.refit import (BASE, MAX_GRID_START, REFINE_STEPS, Outcome, Problem,
-                                     interval_from_profile, noise_scale, parabola_step,
-                                     profile_eta_r, refit)
+from railfem.diagnosis.problem import BASE, Problem, noise_scale
+from railfem.diagnosis.refit import (MAX_GRID_START, REFINE_STEPS, Outcome,
+                                     interval_from_profile, parabola_step, profile_eta_r,
+                                     refit)
 from railfem.identify import data as fdata
 from railfem.spec import TrackSpec, preset
 

@@ -11,9 +11,7 @@ start, the best ones are refitted, a numeric grid is refined at the parabola thr
 best value and its neighbours (one new kernel), and its 95 % interval is read off the
 profile (cost within chi^2_1(95 %) s^2 of the minimum).
 
-Residuals are divided by a fixed scale per quantity (the white-noise level of the base
-fit's residual from the median absolute deviation of its first differences, at least
-0.1 dB), so every model is scored on the same footing:
+Scores (residuals scaled per quantity, railfem.diagnosis.problem):
 cost = sum (r / s_q)^2, AICc = cost + 2k + 2k(k+1)/(N-k-1), BIC = cost + k ln N.
 """
 from __future__ import annotations
@@ -21,227 +19,21 @@ from __future__ import annotations
 import itertools
 import logging
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import least_squares
 
-from railfem.identify import data as fdata
+from railfem.diagnosis.problem import BASE, Box, Problem
 from railfem.identify import uncertainty
-from railfem.identify.fit import FIT_BOUNDS
 from railfem.params import Parameter
 
 log = logging.getLogger(__name__)
 
-BASE = ("kp", "eta_p", "kb", "eta_b")
 CHI2_95 = 3.841
 REFINE_STEPS = 4  # parabolic steps of a numeric grid parameter (each a new kernel)
 ETA_R_LATTICE = 0.05  # decades between the rail-loss kernels of a profile
-MIN_SCALE = 0.1  # dB
 MAX_GRID_START = 4  # effect parameters up to which starts are a 3-value grid
-FAR = 60.0  # dB: the residual of a model entry that is not finite
-
-
-class Box:
-    """The parameter box of a refit (what railfem.identify.uncertainty.analyse reads)."""
-
-    def __init__(self, parameters):
-        self.parameters = tuple(parameters)
-
-    @property
-    def names(self):
-        return tuple(p.name for p in self.parameters)
-
-    @property
-    def lower(self):
-        return np.array([p.encode(p.lower) for p in self.parameters])
-
-    @property
-    def upper(self):
-        return np.array([p.encode(p.upper) for p in self.parameters])
-
-
-def base_parameters(bounds=None) -> list[Parameter]:
-    b = dict(FIT_BOUNDS, **(bounds or {}))
-    return [Parameter(name=n, unit="-" if n.startswith("eta") else "N/m", log=True,
-                      lower=b[n][0], upper=b[n][1]) for n in BASE]
-
-
-@dataclass
-class Problem:
-    """Residuals of base spec + effects (grid values fixed) on the data's fitted parts."""
-
-    data: object
-    evaluator: object
-    spec: object  # the base TrackSpec (its rail loss factor is used as is)
-    effects: tuple = ()
-    grid: dict = field(default_factory=dict)  # {(effect, name): value}
-    scale: dict = field(default_factory=dict)
-    bounds: dict | None = None
-
-    def __post_init__(self):
-        ps = base_parameters(self.bounds)
-        for e in self.effects:
-            for p in e.continuous:
-                q = p.parameter()
-                ps.append(Parameter(name=f"{e.name}.{p.name}", unit=q.unit, log=q.log,
-                                    lower=q.lower, upper=q.upper))
-        self.box = Box(ps)
-
-    def thetas(self, x) -> dict:
-        out = {e.name: {} for e in self.effects}
-        for p, xi in zip(self.box.parameters[len(BASE):], x[len(BASE):]):
-            e, n = p.name.split(".", 1)
-            out[e][n] = p.decode(xi)
-        for (e, n), v in self.grid.items():
-            out[e][n] = v
-        return out
-
-    def base_spec(self, x):
-        vals = {p.name: p.decode(xi) for p, xi in zip(self.box.parameters, x[:len(BASE)])}
-        return self.spec.replace(**vals)
-
-    def predict(self, x) -> dict:
-        """{record name: receptance (nf, n_out, n_pos)} as the data would show it."""
-        th = self.thetas(x)
-        return {r.name: self._measured(self.evaluator.receptance(*self._where(x, th, r)),
-                                       th, r) for r in self.data.records}
-
-    def _where(self, x, th, r):
-        """(spec, record, shift) the evaluator is asked for: base, spec and geometry
-        effects applied."""
-        spec, shift = self.base_spec(x), [0.0, 0.0]
-        for e in self.effects:
-            if e.kind in ("spec", "campaign"):
-                spec = e.apply(spec, th[e.name], r)
-            elif e.kind == "geometry":
-                ds, dh = e.geometry(th[e.name], r)
-                shift[0] += ds
-                shift[1] += dh
-        return spec, r, tuple(shift)
-
-    def _measured(self, a, th, r):
-        for e in self.effects:
-            if e.kind == "measurement":
-                a = e.apply_measurement(a, th[e.name], r)
-        return a
-
-    def _tangent_parameters(self) -> dict:
-        """{vector index: (support index, 'kp' | 'kb')} of the parameters that are the
-        log10 of a support's factor (Effect.deviation_of)."""
-        out = {}
-        for i, p in enumerate(self.box.parameters[len(BASE):], start=len(BASE)):
-            e, n = p.name.split(".", 1)
-            eff = next(x for x in self.effects if x.name == e)
-            if eff.deviation_of is not None:
-                out[i] = eff.deviation_of(n)
-        return out
-
-    def jacobian(self, x, h: float = 1e-7) -> np.ndarray:
-        """d residual / dx: forward differences, except for the support factors of a
-        random effect, whose receptance derivative the evaluator gives in closed form
-        (one Woodbury solve for all of them; the residual is then differenced along it)."""
-        x = np.asarray(x, dtype=float)
-        hi = self.box.upper
-        th = self.thetas(x)
-        tp = self._tangent_parameters()
-        got = {r.name: self.evaluator.tangents(*self._where(x, th, r)[:2])
-               for r in self.data.records} if tp else {}
-        if any(v is None for v in got.values()):
-            tp, got = {}, {}
-        a0 = ({k: v[0] for k, v in got.items()} if got else
-              {r.name: self.evaluator.receptance(*self._where(x, th, r))
-               for r in self.data.records})
-        pred0 = {r.name: self._measured(a0[r.name], th, r) for r in self.data.records}
-        r0 = self.residual(x, prediction=pred0)
-        J = np.empty((len(r0), len(x)))
-        for i in range(len(x)):
-            step = h * max(1.0, abs(x[i]))
-            step = step if x[i] + step <= hi[i] else -step
-            xi = x.copy()
-            xi[i] += step
-            if i in tp:  # along the closed-form tangent (log10 -> ln: a factor ln 10)
-                thi = self.thetas(xi)
-                pred = {r.name: self._measured(a0[r.name] + step * math.log(10)
-                                               * got[r.name][1][tp[i]], thi, r)
-                        for r in self.data.records}
-                J[:, i] = (self.residual(xi, prediction=pred) - r0) / step
-            else:
-                J[:, i] = (self.residual(xi) - r0) / step
-        return J
-
-    @property
-    def analytic(self) -> bool:
-        return any(e.deviation_of is not None for e in self.effects)
-
-    def groups(self, x, part="fit", prediction=None) -> list:
-        """[(record, quantity, residual array)] unscaled, model - measurement (dB)."""
-        pred = self.predict(x) if prediction is None else prediction
-        out = []
-        for r in self.data.records:
-            t = r.fit if part == "fit" else r.held
-            if t is None:
-                continue
-            for q, v in residuals(t, pred[r.name]).items():
-                out.append((r.name, q, v))
-        return out
-
-    def residual(self, x, part="fit", prediction=None) -> np.ndarray:
-        """Scaled residuals of ``part``; on the fitted part followed by the effects' prior
-        entries (Effect.prior: random effects shrunk towards their mean)."""
-        r = [v / self.scale.get(q, 1.0) for _, q, v in self.groups(x, part, prediction)]
-        if part == "fit":
-            r += self.prior(x)
-        return np.concatenate(r)
-
-    def prior(self, x) -> list:
-        th = self.thetas(x)
-        return [np.asarray(e.prior(th[e.name]), dtype=float) for e in self.effects
-                if e.prior is not None]
-
-    def n_prior(self) -> int:
-        x = np.zeros(len(self.box.parameters))
-        return sum(len(p) for p in self.prior(x))
-
-    def cost(self, x) -> float:
-        r = self.residual(x)
-        return float(r @ r)
-
-
-def residuals(target, receptance) -> dict:
-    """Model - measurement (dB) per quantity, flattened over the entries the target uses
-    (weight > 0, data present: masked transfers are NaN in the data); a model entry that
-    is not finite (a band without a model decay rate) counts as FAR dB."""
-    out = {}
-    for q, v in fdata.residual_table(target, receptance).items():
-        v = np.asarray(v, dtype=float)
-        if q == "tdr":
-            used = np.isfinite(target.tdr) & (target.band_weight[:, None] > 0)
-        elif q == "transfer":
-            used = (target.frf_weight[:, None, None] > 0) & np.isfinite(target.transfer)
-        else:
-            used = (target.frf_weight[:, None] > 0) & np.isfinite(target.point)
-        out[q] = np.where(np.isfinite(v), v, FAR)[used]
-    return out
-
-
-def noise_scale(problem: Problem, x) -> dict:
-    """Per quantity, the white-noise level of the residual: 1.4826 MAD of its first
-    differences over frequency or band / sqrt 2, at least MIN_SCALE dB."""
-    diffs: dict = {}
-    pred = problem.predict(x)
-    for r in problem.data.records:
-        table = fdata.residual_table(r.fit, pred[r.name])
-        for q, v in table.items():
-            v = np.asarray(v, dtype=float).reshape(v.shape[0], -1)
-            d = np.diff(v, axis=0)
-            diffs.setdefault(q, []).append(d[np.isfinite(d)])
-    out = {}
-    for q, ds in diffs.items():
-        d = np.concatenate(ds)
-        mad = 1.4826 * float(np.median(np.abs(d - np.median(d)))) if d.size else 0.0
-        out[q] = max(mad / math.sqrt(2), MIN_SCALE)  # robust to sharp local misfits
-    return out
 
 
 @dataclass
