@@ -83,8 +83,7 @@ class Evaluator:
             return np.repeat(a, n_out, axis=1) if a.shape[1] != n_out else a
         t = record.fit
         sx, fx = shifted(record, shift)
-        if (spec.model == "timoshenko-discrete" and spec.deviations
-                and shift == (0.0, 0.0) and spec.pad_length == 0):
+        if self._woodbury(spec, shift):
             return self._deviations(spec, record)
         if spec.deviations:
             need = int(2 * math.ceil((max(np.abs(fx).max(), abs(sx)) + MARGIN)
@@ -95,14 +94,21 @@ class Evaluator:
                               cache=self.cache)
         return a[:, :, 0, :]
 
-    def tangents(self, spec, record):
+    def tangents(self, spec, record, shift=(0.0, 0.0)):
         """(receptance, {(support index, 'kp' | 'kb'): d receptance / d ln factor}) of a
         beam track with deviating supports (the Woodbury path, exact derivatives), or None
         where that path does not serve the spec (a shift, pads in rows, a WFE rail)."""
-        if not (spec.model == "timoshenko-discrete" and spec.deviations
-                and spec.pad_length == 0):
+        if not self._woodbury(spec, shift):
             return None
         return self._deviations(spec, record, gradient=True)
+
+    @staticmethod
+    def _woodbury(spec, shift) -> bool:
+        """The Woodbury path serves a beam on point supports with deviations, unshifted,
+        every deviating support keeping some stiffness (1/k enters the update)."""
+        return (spec.model == "timoshenko-discrete" and bool(spec.deviations)
+                and tuple(map(float, shift)) == (0.0, 0.0) and spec.pad_length == 0
+                and all(min(d.kp, d.kb) > 0 for d in spec.deviations))
 
     def _deviations(self, spec, record, gradient: bool = False):
         """A beam track with deviating supports: the uniform track's eigen form plus a

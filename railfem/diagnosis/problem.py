@@ -127,7 +127,7 @@ class Problem:
         hi = self.box.upper
         th = self.thetas(x)
         tp = self._tangent_parameters()
-        got = {r.name: self.evaluator.tangents(*self._where(x, th, r)[:2])
+        got = {r.name: self.evaluator.tangents(*self._where(x, th, r))
                for r in self.data.records} if tp else {}
         if any(v is None for v in got.values()):
             tp, got = {}, {}
