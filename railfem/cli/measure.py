@@ -109,9 +109,8 @@ def fit_args(p: argparse.ArgumentParser) -> None:
     from ..identify.fit import DEFAULT_PARAMETERS
     from ..spec import MODELS
 
-    p.add_argument("data", type=Path, nargs="+", metavar="DATA",
-                   help="hammer dataset folder / .toml descriptor, a decay-rate table .csv, "
-                        "or pass-by recordings (.npz/.wav with their metadata files)")
+    p.add_argument("data", type=Path, metavar="DATA",
+                   help="hammer dataset folder / .toml descriptor, or a decay-rate table .csv")
     p.add_argument("--model", choices=MODELS, default="wfe-discrete",
                    help="track model (default wfe-discrete)")
     p.add_argument("--use", default=None, metavar="Q,Q",
