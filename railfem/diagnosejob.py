@@ -127,12 +127,11 @@ def passby_rows(paths, *, method: str = "energy", channel: str | None = None,
                 f_low: float = 100.0, f_high: float = 5000.0) -> list:
     """Pass-by recordings -> one decay-rate record per pass-by (railfem.estimators.passby,
     ``method`` 'energy' or 'slope'), the sensor location taken from the recordings."""
-    from .diagnosis.data import PASSBY_METHODS, passby_decay_rates
+    from .diagnosis.data import check_passby_method, passby_decay_rates
     from .estimators.passby import PassbyOptions, passby_decay_rate
     from .io.recording import read_rail_recordings
 
-    if method not in PASSBY_METHODS:
-        raise ValueError(f"--passby-method {method!r}: use one of {PASSBY_METHODS}")
+    check_passby_method(method)  # before the estimator runs
     opts = PassbyOptions(f_low=f_low, f_high=f_high)
     recordings, where = read_rail_recordings(paths, channel)
     res = passby_decay_rate(recordings, opts, speed=speed, axle_spacing=axle_spacing)

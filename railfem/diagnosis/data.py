@@ -163,9 +163,12 @@ def tdr_record(meas: DecayRateMeasurement, spacing: float, name: str = "tdr", *,
 
 
 PASSBY_METHODS = ("energy", "slope")
-
-
 MIN_PASSBY_BANDS = 6  # valid bands a pass-by needs to be a record of its own
+
+
+def check_passby_method(method: str) -> None:
+    if method not in PASSBY_METHODS:
+        raise ValueError(f"pass-by method {method!r}: use one of {PASSBY_METHODS}")
 
 
 def passby_decay_rates(result, *, method: str = "energy", sensor: str = "foot",
@@ -177,8 +180,7 @@ def passby_decay_rates(result, *, method: str = "energy", sensor: str = "foot",
     bands (they share ``section`` and ``date``, so the diagnosis treats them as repeats and
     tests the residual against their scatter), else one record of the estimate pooled over
     the pass-bys."""
-    if method not in PASSBY_METHODS:
-        raise ValueError(f"pass-by method {method!r}: use one of {PASSBY_METHODS}")
+    check_passby_method(method)
     est = getattr(result, method)
     f = np.asarray(result.bands.nominal, dtype=float)
 
@@ -205,7 +207,8 @@ def record_name(meta: Metadata, i: int) -> str:
 
 def prepare(data, *, spacing: float | None = None, **options) -> DiagnosisData:
     """DiagnosisData from a HammerMeasurement, a DecayRateMeasurement, a DecayRateTable
-    (vertical rows), a PassbyDecayRate (one record per pass-by), a list of those, or DiagnosisData (returned as is). spacing: sleeper
+    (vertical rows), a PassbyDecayRate (one record per pass-by), a list of those, or
+    DiagnosisData (returned as is). spacing: sleeper
     spacing (m) for decay rates (hammer tests carry their own)."""
     if isinstance(data, DiagnosisData):
         return data

@@ -45,7 +45,7 @@ from railfem.diagnosis import residual as resid
 from railfem.diagnosis.data import DiagnosisData, prepare
 from railfem.diagnosis.evaluate import Evaluator
 from railfem.diagnosis.problem import BASE, Problem, noise_scale
-from railfem.diagnosis.refit import (MAX_GRID_START, REFINE_STEPS, Outcome,
+from railfem.diagnosis.refit import (REFINE_STEPS, Outcome,
                                      interval_from_profile, parabola_step, profile_eta_r,
                                      refit)
 from railfem.identify import data as fdata
@@ -267,8 +267,9 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
         library.get(n)
     cands, skipped = [], {}
     if effects is None:  # the default screen leaves out the effects that ask to be named
-        skipped.update({n: "not screened by default (minutes per refit): name it in "
-                           "effects= / --effects" for n in names if not library.get(n).screened})
+        skipped.update({n: "not screened by default (tens of parameters, the costliest "
+                           "candidate): name it in effects= / --effects"
+                        for n in names if not library.get(n).screened})
         names = tuple(n for n in names if library.get(n).screened)
     for n in names:
         ok, why = applicable(library.get(n), data, model)
@@ -331,8 +332,7 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
             continue
         # the base's rail loss absorbed part of the effect: profile it (random effects,
         # with tens of parameters, only if chosen)
-        many = len(e.continuous) > MAX_GRID_START
-        if profile_final and not wfe and not many:
+        if profile_final and not wfe and e.prior is None:
             o = profile_eta_r(data, ev, spec_b, (e,), o, scale, max_steps=6, refine=False)
             if (e.kind == "spec" and any(n != "index" for n in e.grid)
                     and o.bic < base_o.bic):

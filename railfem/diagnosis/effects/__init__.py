@@ -26,7 +26,7 @@ effects, e.g. the stiffness of each support of a randomly inhomogeneous track).
 ``deviation_of(name) -> (support index, 'kp' | 'kb')`` says that a parameter is the factor
 on that support's stiffness (log scale): the refit then differentiates it in closed form.
 ``screened=False`` leaves an effect out of the default search (it must be named): for
-effects whose refit costs minutes (tens of parameters).
+costly effects with tens of parameters.
 """
 from __future__ import annotations
 
@@ -80,7 +80,7 @@ class Effect:
     apply_measurement: Callable | None = None
     geometry: Callable | None = None
     prior: Callable | None = None
-    screened: bool = True  # False: too costly for the default screen; named on request
+    screened: bool = True  # False: left out of the default screen; named on request
     deviation_of: Callable | None = None  # parameter name -> (support index, 'kp' | 'kb')
     grid: dict = field(default_factory=dict)
     needs: tuple[str, ...] = ()

@@ -12,8 +12,9 @@ deviation PRIOR_SD (Effect.prior) shrinks the supports the data hardly see towar
 mean, so the fit stays well posed. Supports beyond the window keep the mean stiffness;
 their scatter stays in the residual. The scatter itself is the RMS of the fitted
 ln-factors (report it as the track's coefficient of variation, a lower bound: shrinkage
-pulls weakly seen supports in). Twenty-two parameters make a refit cost minutes: the
-default search leaves it out (screened=False); name it (effects=[..., "random_support"],
+pulls weakly seen supports in). With 22 parameters it is the costliest candidate (~20 s
+per refit on the beam with closed-form derivatives, more in pairs) and the least specific:
+the default search leaves it out (screened=False); name it (effects=[..., "random_support"],
 ``--effects``) to screen it."""
 import numpy as np
 
