@@ -261,11 +261,16 @@ def markdown(s: dict, figs: list[str], title: str) -> str:
     if s["chosen"]:
         c = s["chosen"]
         L += ["", f"## Chosen: {c['name']}", "", "| parameter | value | 95 % interval | "
-              "identifiable |", "|---|---|---|---|"]
+              "joint 95 % interval | identifiable |", "|---|---|---|---|---|"]
         for p in c["parameters"]:
             ci = p.get("ci95") or [None, None]
+            cj = p.get("ci95_joint")
             L.append(f"| {p['name']} | {_fmt(p['value'], p.get('unit', ''))} | "
-                     f"[{_fmt(ci[0])}, {_fmt(ci[1])}] | {p.get('identifiable', '-')} |")
+                     f"[{_fmt(ci[0])}, {_fmt(ci[1])}] | "
+                     + (f"[{_fmt(cj[0])}, {_fmt(cj[1])}]" if cj else "–")
+                     + f" | {p.get('identifiable', '-')} |")
+        L += ["", "The joint interval holds all the effect's parameters at once with 95 % "
+              "confidence (Bonferroni over them); the 95 % interval is each one's own."]
         h = c["held_out"]
         L += ["", f"Held-out error (mean squared scaled residual) {h['mse_ref']:.3g} -> "
               f"{h['mse']:.3g} ({100 * h['reduction']:.0f} % lower, paired t = {h['t']:.2f}, "

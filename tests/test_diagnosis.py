@@ -65,8 +65,8 @@ def test_each_effect_changes_what_the_model_predicts(name, small_record):
     x = np.concatenate([x0, [p.parameter().encode(p.start) if e.prior is None else
                              (p.parameter().encode(p.start) + p.parameter().encode(p.upper))
                              / 2 for p in e.continuous]])
-    a0 = pb0.predict(x0)[data.records[0].name]
-    a = pb.predict(x)[data.records[0].name]
+    a0 = pb0.predict(x0)[data.records[0].name].level
+    a = pb.predict(x)[data.records[0].name].level
     near = np.abs(a0) > 1e-3 * np.abs(a0[:, :, :1])
     change = np.abs(20 * np.log10(np.abs(a[near]) / np.abs(a0[near])))
     assert change.max() > 0.1, name
@@ -152,12 +152,29 @@ def test_campaign_effects_follow_the_covariate():
     pb = Problem(data=data, evaluator=Evaluator(), spec=spec, effects=(e,))
     x = np.array([*np.log10([400e6, 0.2, 60e6, 1.0]), 0.03])  # a enters linearly
     pred = pb.predict(x)
-    a0, a2 = pred[data.records[0].name], pred[data.records[2].name]
+    a0, a2 = pred[data.records[0].name].level, pred[data.records[2].name].level
     assert np.abs(a0 - a2).max() > 0.01 * np.abs(a0).max()
 
 
-def test_noise_floor_operator_is_the_expected_log_magnitude():
-    """Monte Carlo of 20 lg |Y + n| (n complex Gaussian, RMS g |Y_0|) against the operator."""
+def test_transfers_are_masked_by_band_level_not_by_single_lines():
+    """A single line 80 dB below the point (a deep notch, or a floor's Rayleigh dip) in a
+    band whose level is well above -60 dB stays compared; a position whose whole band is
+    70 dB down is not compared anywhere in that band."""
+    f = g.frequencies()
+    Y, pos = g.clean(g.truth_spec(), f)
+    b = np.flatnonzero((f >= 447) & (f < 562))  # the 500 Hz band
+    Y[b[1], 0, 3] = 1e-4 * np.abs(Y[b[1], 0, 0])
+    Y[b, 0, 4] = 10 ** (-70 / 20) * np.abs(Y[b, 0, 0])
+    t = prepare(g.measurement(Y, pos, f)).records[0].fit
+    idx = list(t.transfer_index)
+    assert np.isfinite(t.transfer[b[1], 0, idx.index(3)])
+    assert np.all(np.isnan(t.transfer[b, 0, idx.index(4)]))
+    assert np.all(np.isfinite(t.transfer[b, 0, idx.index(3)]))
+
+
+def test_noise_floor_operators_are_the_expected_log_magnitude_and_power():
+    """Monte Carlo of 20 lg |Y + n| and of |Y + n|^2 (n complex Gaussian, RMS g |Y_0|)
+    against the two faces of the operator (they differ by up to 2.5 dB under the floor)."""
     rng = np.random.default_rng(1)
     Y = np.array([1.0, 0.3, 0.05, 0.01, 0.002], dtype=complex)[None, None, :] * (1 + 1j)
     g_db = -30.0
@@ -170,6 +187,17 @@ def test_noise_floor_operator_is_the_expected_log_magnitude():
 
     op = noise_floor.apply_measurement(Y, {"floor_db": g_db}, Rec())
     assert np.allclose(20 * np.log10(np.abs(op[0, 0, 1:])), mc[1:], atol=0.02)
+    var_mc = np.var(20 * np.log10(np.abs(Y[0, 0, :] + sigma * n)), axis=0)
+    var = noise_floor.variance(Y, {"floor_db": g_db}, Rec())
+    assert var[0, 0, 0] == 0.0  # the point is the reference
+    assert np.allclose(var[0, 0, 1:] / var_mc[1:], 1.0, atol=0.17)
+    assert var[0, 0, 4] == pytest.approx(var_mc[4], rel=0.03)  # deep under the floor
+    mc_power = np.mean(np.abs(Y[0, 0, :] + sigma * n) ** 2, axis=0)
+    pw = noise_floor.apply_power(Y, {"floor_db": g_db}, Rec())
+    assert np.allclose(np.abs(pw[0, 0, 1:]) ** 2 / mc_power[1:], 1.0, atol=0.01)
+    # deep under the floor the faces differ by Euler's constant in ln: 2.5 dB
+    assert 20 * np.log10(np.abs(pw[0, 0, 4] / op[0, 0, 4])) == pytest.approx(
+        10 * np.log10(np.exp(np.euler_gamma)), abs=0.05)
 
 
 def test_sensor_transmissibility_limits():
@@ -212,6 +240,36 @@ def test_structure_test_sees_a_smooth_misfit_below_the_noise():
                                     x))
     assert st["structured_rms_db"] == pytest.approx(np.sqrt(0.5), abs=0.1)
     assert st["sigma_white_db"] == pytest.approx(0.3, abs=0.05)
+
+
+def test_structure_test_takes_the_noise_the_model_expects():
+    """White noise whose SD is 0.3 dB on most entries and 5.6 dB on a quarter of them (a
+    noise floor's log-Rayleigh scatter, drawn as such): told the entries' extra variance
+    (Block.variance) the test calls it noise in >= 95 of 100 trials with a structured
+    part below 0.5 dB; not told, it reports several dB of structure (what it cannot
+    know). A smooth misfit under the same noise is still seen with the variance told."""
+    rng = np.random.default_rng(4)
+    x = np.geomspace(50, 5000, 40)
+    var = np.zeros((40, 1, 12))
+    var[:, :, 9:] = 31.0  # dB^2: (10 lg e)^2 pi^2/6
+    ok, big = 0, []
+    for _ in range(100):
+        v = 0.3 * rng.standard_normal(var.shape)
+        e = rng.exponential(size=(40, 1, 3))
+        v[:, :, 9:] = 10 * np.log10(e) + 10 * np.log10(np.exp(np.euler_gamma))  # mean 0
+        blk = R.Block(record="r", part="fit", quantity="transfer", axis="frequency", x=x,
+                      outputs=("head",), positions=np.arange(12.0), values=v,
+                      variance=var)
+        st = R.structure_test(R.Residual(blocks=(blk,)))
+        ok += st["verdict"] == "noise" and st["structured_rms_db"] < 0.5
+        big.append(R.structure_test(_residual(v, x))["structured_rms_db"])
+    assert ok >= 95
+    assert np.median(big) > 2.0
+    smooth = 0.5 * np.sin(np.log(x) * 2)[:, None, None] * np.ones((1, 1, 12))
+    blk = R.Block(record="r", part="fit", quantity="transfer", axis="frequency", x=x,
+                  outputs=("head",), positions=np.arange(12.0), values=v + smooth,
+                  variance=var)
+    assert R.structure_test(R.Residual(blocks=(blk,)))["verdict"] == "structure"
 
 
 # ------------------------------------------------------------------ small blind diagnosis

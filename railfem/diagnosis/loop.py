@@ -44,11 +44,10 @@ from railfem.diagnosis import effects as library
 from railfem.diagnosis import residual as resid
 from railfem.diagnosis.data import DiagnosisData, prepare
 from railfem.diagnosis.evaluate import Evaluator
-from railfem.diagnosis.problem import BASE, Problem, noise_scale
+from railfem.diagnosis.problem import BASE, Problem, noise_scale, table
 from railfem.diagnosis.refit import (REFINE_STEPS, Outcome,
                                      interval_from_profile, parabola_step, profile_eta_r,
                                      refit)
-from railfem.identify import data as fdata
 from railfem.spec import TrackSpec, preset
 
 log = logging.getLogger(__name__)
@@ -131,7 +130,7 @@ def held_gate(ref: Outcome, cand: Outcome, pred_ref=None, pred_c=None) -> dict:
         t = r.held
         if t is None:
             continue
-        ta, tb = fdata.residual_table(t, pr[r.name]), fdata.residual_table(t, pc[r.name])
+        ta, tb = table(t, pr[r.name]), table(t, pc[r.name])
         for q in ta:
             a = np.asarray(ta[q]) / scale.get(q, 1.0)
             b = np.asarray(tb[q]) / scale.get(q, 1.0)

@@ -24,6 +24,23 @@ MIN_SCALE = 0.1  # dB
 FAR = 60.0  # dB: the residual of a model entry that is not finite
 
 
+@dataclass(frozen=True)
+class Prediction:
+    """A model prediction of one record: the receptance (nf, n_out, n_pos) whose level in
+    dB the FRFs are compared with, and the one whose band power the decay rate sums (they
+    differ only under a random additive measurement term: the noise floor), with the
+    variance (dB^2) such a term adds to each level (None: none)."""
+
+    level: np.ndarray
+    power: np.ndarray
+    variance: np.ndarray | None = None  # dB^2 a random term adds to each level entry
+
+
+def table(target, prediction: Prediction) -> dict:
+    """railfem.identify.data.residual_table of a Prediction."""
+    return fdata.residual_table(target, prediction.level, power=prediction.power)
+
+
 class Box:
     """The parameter box of a refit (what railfem.identify.uncertainty.analyse reads)."""
 
@@ -84,7 +101,7 @@ class Problem:
         return self.spec.replace(**vals)
 
     def predict(self, x) -> dict:
-        """{record name: receptance (nf, n_out, n_pos)} as the data would show it."""
+        """{record name: Prediction} as the data would show it."""
         th = self.thetas(x)
         return {r.name: self._measured(self.evaluator.receptance(*self._where(x, th, r)),
                                        th, r) for r in self.data.records}
@@ -102,11 +119,17 @@ class Problem:
                 shift[1] += dh
         return spec, r, tuple(shift)
 
-    def _measured(self, a, th, r):
+    def _measured(self, a, th, r) -> Prediction:
+        level = power = a
+        var = None
         for e in self.effects:
             if e.kind == "measurement":
-                a = e.apply_measurement(a, th[e.name], r)
-        return a
+                if e.variance is not None:  # of the term, on what it is added to
+                    v = e.variance(level, th[e.name], r)
+                    var = v if var is None else var + v
+                level = e.apply_measurement(level, th[e.name], r)
+                power = (e.apply_power or e.apply_measurement)(power, th[e.name], r)
+        return Prediction(level=level, power=power, variance=var)
 
     def _tangent_parameters(self) -> dict:
         """{vector index: (support index, 'kp' | 'kb')} of the parameters that are the
@@ -176,6 +199,18 @@ class Problem:
             r += self.prior(x)
         return np.concatenate(r)
 
+    def clusters(self) -> np.ndarray:
+        """A label per entry of ``residual(x)`` (fitted part): entries whose noise may be
+        shared. The EN 15461 decay rate in a band is computed from the same measured FRFs
+        as the point and transfer entries of that band and sensor, so (record, sensor,
+        band) is one cluster; each prior entry is its own."""
+        labels = []
+        for r in self.data.records:
+            for q, lab in cluster_labels(r.fit).items():
+                labels += [f"{r.name}|{v}" for v in lab]
+        labels += [f"prior|{i}" for i in range(self.n_prior())]
+        return np.unique(np.array(labels, dtype=object), return_inverse=True)[1]
+
     def prior(self, x) -> list:
         th = self.thetas(x)
         return [np.asarray(e.prior(th[e.name]), dtype=float) for e in self.effects
@@ -190,20 +225,43 @@ class Problem:
         return float(r @ r)
 
 
-def residuals(target, receptance) -> dict:
+def residuals(target, prediction: Prediction) -> dict:
     """Model - measurement (dB) per quantity, flattened over the entries the target uses
     (weight > 0, data present: masked transfers are NaN in the data); a model entry that
     is not finite (a band without a model decay rate) counts as FAR dB."""
+    return {q: np.where(np.isfinite(v), v, FAR)[used_entries(target, q)]
+            for q, v in table(target, prediction).items()}
+
+
+def used_entries(target, q: str) -> np.ndarray:
+    """The boolean mask of the entries of quantity q a fit uses (on residual_table's axes)."""
+    if q == "tdr":
+        return np.isfinite(target.tdr) & (target.band_weight[:, None] > 0)
+    if q == "transfer":
+        return (target.frf_weight[:, None, None] > 0) & np.isfinite(target.transfer)
+    return (target.frf_weight[:, None] > 0) & np.isfinite(target.point)
+
+
+def cluster_labels(target) -> dict:
+    """Per quantity, in the order of ``residuals``, the label 'sensor|band' of each used
+    entry (the band of the decay rate; of the frequency for FRF entries)."""
+    n_out = len(target.outputs)
+    f = target.frequency
+    if target.bands is not None:
+        band = np.full(len(f), -1)
+        for k, (lo, hi) in enumerate(zip(target.bands.lower, target.bands.upper)):
+            band[(f >= lo) & (f < hi)] = k
+        band = np.where(band >= 0, band, -1 - np.arange(len(f)))  # outside: its own
+    else:
+        band = -1 - np.arange(len(f))
     out = {}
-    for q, v in fdata.residual_table(target, receptance).items():
-        v = np.asarray(v, dtype=float)
-        if q == "tdr":
-            used = np.isfinite(target.tdr) & (target.band_weight[:, None] > 0)
-        elif q == "transfer":
-            used = (target.frf_weight[:, None, None] > 0) & np.isfinite(target.transfer)
-        else:
-            used = (target.frf_weight[:, None] > 0) & np.isfinite(target.point)
-        out[q] = np.where(np.isfinite(v), v, FAR)[used]
+    for q in (q for q in fdata.QUANTITIES if q in target.use):  # residual_table's order
+        used = used_entries(target, q)
+        lab = np.arange(used.shape[0]) if q == "tdr" else band
+        lab = np.broadcast_to(lab.reshape((-1,) + (1,) * (used.ndim - 1)), used.shape)
+        o = np.broadcast_to(np.arange(n_out).reshape((1, -1) + (1,) * (used.ndim - 2)),
+                            used.shape)
+        out[q] = [f"{oi}|{bi}" for oi, bi in zip(o[used], lab[used])]
     return out
 
 
@@ -213,8 +271,7 @@ def noise_scale(problem: Problem, x) -> dict:
     diffs: dict = {}
     pred = problem.predict(x)
     for r in problem.data.records:
-        table = fdata.residual_table(r.fit, pred[r.name])
-        for q, v in table.items():
+        for q, v in table(r.fit, pred[r.name]).items():
             v = np.asarray(v, dtype=float).reshape(v.shape[0], -1)
             d = np.diff(v, axis=0)
             diffs.setdefault(q, []).append(d[np.isfinite(d)])

@@ -22,6 +22,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import stats
 from scipy.optimize import least_squares
 
 from railfem.diagnosis.problem import BASE, Box, Problem
@@ -66,7 +67,10 @@ class Outcome:
         return self.cost + self.k * math.log(self.n)
 
     def parameters(self) -> list[dict]:
-        """Estimates with 95 % intervals: base, effects, grid (profiled) values."""
+        """Estimates with 95 % intervals: base, effects, grid (profiled) values. The effect
+        parameters also get ``ci95_joint``: simultaneous 95 % intervals over the effects'
+        k parameters (Bonferroni: each at 1 - 0.05/k), the statement that all of them lie
+        inside at once; ``ci95`` is each one's own (marginal) interval."""
         out = [dict(p, group="base" if "." not in p["name"] else "effect")
                for p in self.analysis["parameters"]]
         for (e, n), prof in self.grid_profiles.items():
@@ -76,7 +80,29 @@ class Outcome:
                         "unit": prof.get("unit", "")})
         if self.eta_r_profile is not None:
             out.append({"name": "eta_r", "group": "base", **self.eta_r_profile})
+        self._joint(out)
         return out
+
+    def _joint(self, out: list[dict]) -> None:
+        eff = [p for p in out if p["group"] == "effect" and p.get("ci95") is not None]
+        if not eff:
+            return
+        level = 1 - 0.05 / len(eff)
+        s2, dof = self.analysis["residual_variance"], self.analysis["dof"]
+        t = float(stats.t.ppf(1 - (1 - level) / 2, dof))
+        box = {p.name: p for p in self.problem.box.parameters}
+        for p in eff:
+            key = tuple(p["name"].split(".", 1))
+            if key in self.grid_profiles:
+                iv = interval_from_profile(self.grid_profiles[key], s2,
+                                           float(stats.chi2.ppf(level, 1)))
+                p["ci95_joint"] = iv["ci95"]
+            elif np.isfinite(p.get("std_vector", np.inf)):
+                q, v, sd = box[p["name"]], p["vector"], p["std_vector"]
+                p["ci95_joint"] = [uncertainty.decode(q, v - t * sd),
+                                   uncertainty.decode(q, v + t * sd)]
+            else:
+                p["ci95_joint"] = list(p["ci95"])
 
     def theta(self) -> dict:
         return self.problem.thetas(self.x)
@@ -209,7 +235,7 @@ def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
                     prof["cost"][prof["values"].index(best[j])] = results[best][1]
     x, c, J = results[best]
     r = pb.residual(x)
-    analysis = uncertainty.analyse(pb.box, x, J, r)
+    analysis = uncertainty.analyse(pb.box, x, J, r, clusters=pb.clusters())
     s2 = analysis["residual_variance"]
     for k, prof in profiles.items():
         prof.update(interval_from_profile(prof, s2))
@@ -274,32 +300,33 @@ def _profile_grid(keys, values, best, results, problem_for, x_base, refine_steps
     return best, profiles
 
 
-def interval_from_profile(prof: dict, s2: float) -> dict:
+def interval_from_profile(prof: dict, s2: float, threshold: float = CHI2_95) -> dict:
     """95 % interval of a profiled grid parameter: where the profile stays within
-    CHI2_95 s^2 of its minimum (linear interpolation; open at the grid's ends)."""
+    ``threshold`` s^2 (CHI2_95: 95 %) of its minimum (linear interpolation; open at the
+    grid's ends)."""
     v, c = np.array(prof["values"]), np.array(prof["cost"])
     d = (c - c.min()) / max(s2, 1e-300)
     k = int(np.argmin(d))
     if prof.get("integer"):
-        inside = v[d < CHI2_95]
+        inside = v[d < threshold]
         return {"ci95": [float(inside.min()), float(inside.max())],
                 "identifiable": "yes" if len(inside) == 1 else "weak",
                 "reason": f"indices within the 95 % profile threshold: "
                           f"{[int(x) for x in inside]}"}
     lo = hi = None
     for a in range(k, 0, -1):
-        if d[a - 1] >= CHI2_95:
-            lo = v[a - 1] + (CHI2_95 - d[a - 1]) * (v[a] - v[a - 1]) / (d[a] - d[a - 1])
+        if d[a - 1] >= threshold:
+            lo = v[a - 1] + (threshold - d[a - 1]) * (v[a] - v[a - 1]) / (d[a] - d[a - 1])
             break
     for a in range(k, len(v) - 1):
-        if d[a + 1] >= CHI2_95:
-            hi = v[a] + (CHI2_95 - d[a]) * (v[a + 1] - v[a]) / (d[a + 1] - d[a])
+        if d[a + 1] >= threshold:
+            hi = v[a] + (threshold - d[a]) * (v[a + 1] - v[a]) / (d[a + 1] - d[a])
             break
     if 0 < k < len(v) - 1:  # the parabola through the best three: a finer interval
         A = np.vstack([v[k - 1:k + 2] ** 2, v[k - 1:k + 2], np.ones(3)]).T
         a, b, _ = np.linalg.solve(A, c[k - 1:k + 2])
         if a > 0:
-            half = math.sqrt(CHI2_95 * s2 / a)
+            half = math.sqrt(threshold * s2 / a)
             vertex = -b / (2 * a)
             lo, hi = vertex - half, vertex + half
     open_ = [s for s, x in (("low", lo), ("high", hi)) if x is None]
@@ -412,7 +439,7 @@ def _joint_uncertainty(best: Outcome, done: dict) -> None:
     J = np.column_stack([J, col])
     box = Box(list(pb.box.parameters) + [Parameter(name="eta_r", unit="-", log=True,
                                                    lower=1e-4, upper=0.5)])
-    analysis = uncertainty.analyse(box, np.append(best.x, le), J, r0)
+    analysis = uncertainty.analyse(box, np.append(best.x, le), J, r0, clusters=pb.clusters())
     best.analysis = dict(analysis, parameters=analysis["parameters"][:-1],
                          eta_r=analysis["parameters"][-1])
 

@@ -22,7 +22,11 @@ band; railfem.plotting draws it over frequency, over hammer distance and head ag
 It also estimates the white part of the residual from first differences over frequency
 (sigma_w = 1.4826 MAD(r_i - r_i-1) / sqrt 2: smooth structure cancels in differences of
 neighbours and sharp local misfits do not move a median) and
-the structured RMS sqrt(max(0, mean r^2 - sigma_w^2)) in dB; where repeats exist the
+the structured RMS sqrt(max(0, mean (r^2 - v) - sigma_w^2)) in dB (the mean weighted by
+1 / (sigma_w^2 + v)^2), v the variance the model itself expects an entry to scatter by (``Block.variance``, from a measurement
+effect with a random term: the noise floor's log-Rayleigh scatter, 5.6 dB under the
+floor; 0 elsewhere; such entries enter the correlation test over their expected SD
+sqrt(sigma_w^2 + v)); where repeats exist the
 structured RMS is sqrt(mean max(0, r^2 - s_b^2)) instead: what exceeds the repeat
 scatter band by band (the repeats measure the noise directly; band-to-band differences of
 a decay rate are not noise).
@@ -34,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from railfem.identify import data as fdata
+from railfem.diagnosis.problem import table
 
 ALPHA = 0.01
 NEGLIGIBLE_DB = 0.5  # structure below this RMS (dB) is not worth a mechanism
@@ -53,20 +57,21 @@ class Block:
     outputs: tuple
     positions: np.ndarray
     values: np.ndarray
+    variance: np.ndarray | None = None  # dB^2 the model expects as extra noise per entry
 
     def rms(self) -> float:
         v = self.values[np.isfinite(self.values)]
         return float(np.sqrt(np.mean(v ** 2))) if v.size else float("nan")
 
 
-def blocks(record, part: str, receptance: np.ndarray) -> list[Block]:
-    """The residual blocks of one record's part ('fit' or 'held') for a model receptance."""
+def blocks(record, part: str, prediction) -> list[Block]:
+    """The residual blocks of one record's part ('fit' or 'held') for a model prediction
+    (railfem.diagnosis.problem.Prediction)."""
     target = record.fit if part == "fit" else record.held
     if target is None:
         return []
-    table = fdata.residual_table(target, receptance)
     out = []
-    for q, v in table.items():
+    for q, v in table(target, prediction).items():
         meas_minus_model = -np.asarray(v, dtype=float)
         if q in ("point", "phase"):
             vals, pos, axis, x = meas_minus_model[:, :, None], target.positions[:1], \
@@ -77,9 +82,11 @@ def blocks(record, part: str, receptance: np.ndarray) -> list[Block]:
         else:
             vals, pos, axis, x = meas_minus_model[:, :, None], np.array([np.nan]), "band", \
                 target.bands.nominal
+        var = (prediction.variance[:, :, target.transfer_index]
+               if q == "transfer" and prediction.variance is not None else None)
         out.append(Block(record=record.name, part=part, quantity=q, axis=axis,
                          x=np.asarray(x, dtype=float), outputs=tuple(target.outputs),
-                         positions=np.asarray(pos, dtype=float), values=vals))
+                         positions=np.asarray(pos, dtype=float), values=vals, variance=var))
     return out
 
 
@@ -123,12 +130,12 @@ class Residual:
         return rows
 
 
-def make_residual(data, receptances: dict, parts=("fit", "held")) -> Residual:
-    """Residual of the model receptances {record name: (nf, n_out, n_pos)} on ``data``."""
+def make_residual(data, predictions: dict, parts=("fit", "held")) -> Residual:
+    """Residual of the model predictions {record name: Prediction} on ``data``."""
     out = []
     for r in data.records:
         for part in parts:
-            out += blocks(r, part, receptances[r.name])
+            out += blocks(r, part, predictions[r.name])
     return Residual(blocks=tuple(out))
 
 
@@ -149,9 +156,12 @@ def ljung_box(seq: np.ndarray, h: int) -> float:
     return n * (n + 2) * q
 
 
-def _runs(values: np.ndarray, axis: int, min_len: int):
-    """Contiguous finite sequences of ``values`` along ``axis`` (others flattened)."""
+def _runs(values: np.ndarray, axis: int, min_len: int, variance=None):
+    """Contiguous finite sequences of ``values`` along ``axis`` (others flattened), each
+    with the matching entries of ``variance`` (zeros without)."""
+    var = np.zeros_like(values) if variance is None else variance
     v = np.moveaxis(values, axis, 0).reshape(values.shape[axis], -1)
+    w = np.moveaxis(var, axis, 0).reshape(values.shape[axis], -1)
     for j in range(v.shape[1]):
         col = v[:, j]
         ok = np.isfinite(col)
@@ -160,7 +170,25 @@ def _runs(values: np.ndarray, axis: int, min_len: int):
         edges = np.flatnonzero(np.diff(np.concatenate(([0], ok.astype(int), [0]))))
         for a, b in zip(edges[::2], edges[1::2]):
             if b - a >= min_len:
-                yield col[a:b]
+                yield col[a:b], w[a:b, j]
+
+
+def _standard(seq, var, sigma_w):
+    """seq over its expected noise SD where the model expects extra variance (else as is:
+    the Ljung-Box statistic does not see a common scale)."""
+    if not np.any(var):
+        return seq
+    return seq / np.sqrt(max(sigma_w, 1e-3) ** 2 + var)
+
+
+def _structured(excess: np.ndarray, sigma_w: float) -> float:
+    """sqrt(max(0, mean(r^2 - v) - sigma_w^2)) from rows (r^2 - v, v); the mean weighted
+    by 1 / (sigma_w^2 + v)^2, the inverse variance of r^2 (equal weights where v = 0; an
+    entry under a noise floor, 5.6 dB log-Rayleigh scatter, would otherwise swing the
+    estimate by dB)."""
+    d, v = excess
+    w = 1.0 / (max(sigma_w, 1e-3) ** 2 + v) ** 2
+    return float(np.sqrt(max(0.0, float(w @ d) / float(w.sum()) - sigma_w ** 2)))
 
 
 def structure_test(res: Residual, *, part="fit", alpha: float = ALPHA,
@@ -168,35 +196,40 @@ def structure_test(res: Residual, *, part="fit", alpha: float = ALPHA,
     """Noise or structure (see the module docstring). repeats: {band_hz: scatter_db} from
     repeat_scatter, or None. Returns a JSON-ready dict with 'verdict' ('noise' or
     'structure'), p-values, sigma_w and the structured RMS (dB)."""
+    used = [b for b in res.select(part=part) if b.quantity != "phase"]
+    # the white part first: 1.4826 MAD of the differences over frequency (robust: sharp
+    # local misfits and the few entries a noise floor scatters do not count)
+    d = np.concatenate([np.diff(seq) for b in used for seq, _ in _runs(b.values, 0, 8)]
+                       or [np.zeros(0)])
+    sigma_w = (float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2)) if d.size
+               else float("nan"))
     q_f = df_f = q_x = df_x = 0.0
-    diffs, squares, n_tot = [], [], 0
-    for b in res.select(part=part):
-        if b.quantity == "phase":
-            continue
-        for seq in _runs(b.values, 0, 8):
+    squares, excess, n_tot = [], [], 0
+    for b in used:
+        # entries the model expects to scatter more (Block.variance: a noise floor) are
+        # standardised by their expected SD before the correlation test, and their extra
+        # variance is not counted as structure
+        for seq, var in _runs(b.values, 0, 8, b.variance):
             h = max(1, min(5, len(seq) // 5))
-            q_f += ljung_box(seq, h)
+            q_f += ljung_box(_standard(seq, var, sigma_w), h)
             df_f += h
-            diffs.append(np.diff(seq))
             squares.append(seq ** 2)
+            excess.append(np.stack([seq ** 2 - var, var]))
             n_tot += len(seq)
         if b.quantity == "transfer" and b.values.shape[2] >= 8:
             order = np.argsort(b.positions)
-            for seq in _runs(b.values[:, :, order], 2, 8):
+            var_o = None if b.variance is None else b.variance[:, :, order]
+            for seq, var in _runs(b.values[:, :, order], 2, 8, var_o):
                 h = max(1, min(3, len(seq) // 5))
-                q_x += ljung_box(seq, h)
+                q_x += ljung_box(_standard(seq, var, sigma_w), h)
                 df_x += h
     p_f = float(stats.chi2.sf(q_f, df_f)) if df_f else 1.0
     p_x = float(stats.chi2.sf(q_x, df_x)) if df_x else 1.0
     tests = [p for p, d in ((p_f, df_f), (p_x, df_x)) if d]
     p_corr = min(1.0, min(tests) * len(tests)) if tests else 1.0
-    d = np.concatenate(diffs) if diffs else np.zeros(0)
     s = np.concatenate(squares) if squares else np.zeros(0)
-    # robust: 1.4826 MAD of the differences (sharp local misfits do not count as noise)
-    sigma_w = (float(1.4826 * np.median(np.abs(d - np.median(d))) / np.sqrt(2)) if d.size
-               else float("nan"))
     total = float(np.sqrt(np.mean(s))) if s.size else float("nan")
-    structured = float(np.sqrt(max(0.0, np.mean(s) - sigma_w ** 2))) if s.size else 0.0
+    structured = _structured(np.concatenate(excess, axis=1), sigma_w) if s.size else 0.0
     out = {"part": part, "alpha": alpha, "n": int(n_tot),
            "ljung_box_frequency": {"Q": q_f, "dof": df_f, "p": p_f},
            "ljung_box_position": {"Q": q_x, "dof": df_x, "p": p_x},

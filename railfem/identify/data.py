@@ -101,9 +101,11 @@ class Target:
         return out
 
 
-def model_quantities(target: Target, receptance: np.ndarray) -> dict:
+def model_quantities(target: Target, receptance: np.ndarray, power=None) -> dict:
     """The model's point/transfer mobilities and decay rates at the target's geometry from
-    its receptance (nf, n_out, n_pos)."""
+    its receptance (nf, n_out, n_pos). ``power``: the receptance whose band power the decay
+    rate is taken from, where it differs from the level in dB (a random additive term:
+    railfem.diagnosis.effects.noise_floor); default ``receptance``."""
     f = target.frequency
     Y = 2j * np.pi * f[:, None, None] * receptance
     out = {}
@@ -112,7 +114,8 @@ def model_quantities(target: Target, receptance: np.ndarray) -> dict:
     if target.transfer is not None:
         out["transfer"] = Y[:, :, target.transfer_index]
     if target.tdr is not None:
-        out["tdr"] = model_decay_rate(target, Y)
+        Yp = Y if power is None else 2j * np.pi * f[:, None, None] * power
+        out["tdr"] = model_decay_rate(target, Yp)
     return out
 
 
@@ -153,10 +156,11 @@ def residuals(target: Target, receptance: np.ndarray) -> dict:
     return out
 
 
-def residual_table(target: Target, receptance: np.ndarray) -> dict:
+def residual_table(target: Target, receptance: np.ndarray, power=None) -> dict:
     """Unweighted residuals (dB) per quantity on their axes, NaN where not fitted, for
-    reports: point/phase (nf, n_out), transfer (nf, n_out, n_sel), tdr (n_bands, n_out)."""
-    q = model_quantities(target, receptance)
+    reports: point/phase (nf, n_out), transfer (nf, n_out, n_sel), tdr (n_bands, n_out);
+    ``power`` as in model_quantities."""
+    q = model_quantities(target, receptance, power)
     out = {}
     fit_f = target.frf_weight > 0
     if "point" in target.use:

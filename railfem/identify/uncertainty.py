@@ -5,8 +5,9 @@ parameter vector: log10 of stiffnesses, masses and loss factors, metres for a le
 
     s^2 = |r|^2 / (N - p),   C = s^2 (J^T J)^-1,   rho_ij = C_ij / sqrt(C_ii C_jj)
 
-and the 95 % interval of x_i is x_i +- t_(0.975, N-p) sqrt(C_ii), mapped back to SI (a
-multiplicative interval for log-scale parameters). J^T J is inverted through the SVD of J
+(or, where entries share noise, the larger of C_ii and the cluster-robust sandwich
+variance, robust_covariance) and the 95 % interval of x_i is x_i +- t_(0.975, N-p)
+sqrt(C_ii), mapped back to SI (a multiplicative interval for log-scale parameters). J^T J is inverted through the SVD of J
 with singular values below 1e-10 of the largest dropped (their directions carry no
 information; the affected parameters are reported not identifiable).
 
@@ -48,6 +49,22 @@ def covariance(J: np.ndarray, r: np.ndarray):
     return C, C_diag, s2, dof, sv, Vt
 
 
+def robust_covariance(J: np.ndarray, r: np.ndarray, clusters: np.ndarray):
+    """(C, G): the cluster-robust (sandwich) covariance A^-1 M A^-1, A = J^T J and
+    M = G/(G-1) sum_g (J_g^T r_g)(J_g^T r_g)^T over the G clusters (entries whose noise may
+    be shared: a decay rate and the FRFs it was computed from). It needs no s^2 and holds
+    when entries within a cluster are correlated; A^-1 is the pseudo-inverse of covariance."""
+    clusters = np.asarray(clusters)
+    G = int(clusters.max()) + 1 if clusters.size else 0
+    U, sv, Vt = np.linalg.svd(J, full_matrices=False)
+    keep = sv > DROP_RATIO * sv.max() if sv.size and sv.max() > 0 else np.zeros(len(sv), bool)
+    Ainv = (Vt.T * np.where(keep, 1.0 / np.where(keep, sv, 1.0) ** 2, 0.0)) @ Vt
+    S = np.zeros((G, J.shape[1]))
+    np.add.at(S, clusters, J * r[:, None])
+    M = S.T @ S * (G / max(G - 1, 1))
+    return Ainv @ M @ Ainv, G
+
+
 def correlation(C: np.ndarray) -> np.ndarray:
     d = np.sqrt(np.clip(np.diag(C), 0, None))
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -57,10 +74,17 @@ def correlation(C: np.ndarray) -> np.ndarray:
     return np.clip(rho, -1.0, 1.0)
 
 
-def analyse(space, x: np.ndarray, J: np.ndarray, r: np.ndarray, profiles=None) -> dict:
+def analyse(space, x: np.ndarray, J: np.ndarray, r: np.ndarray, profiles=None,
+            clusters=None) -> dict:
     """Per-parameter estimates, 95 % intervals and identifiability, the correlation matrix
-    and the singular values; ``profiles``: {name: profile dict (railfem.identify.fit)}."""
+    and the singular values; ``profiles``: {name: profile dict (railfem.identify.fit)};
+    ``clusters``: a label per residual entry (robust_covariance): each parameter's variance
+    is then the larger of the model-based and the cluster-robust one (the model-based one
+    assumes independent entries of equal variance; the robust one holds without)."""
     C, C_diag, s2, dof, sv, Vt = covariance(J, r)
+    if clusters is not None:
+        C_rob, _ = robust_covariance(J, r, clusters)
+        C_diag = np.maximum(C_diag, np.diag(C_rob))
     t = float(stats.t.ppf(0.975, dof))
     rho = correlation(C)
     lo, hi = space.lower, space.upper
@@ -77,7 +101,7 @@ def analyse(space, x: np.ndarray, J: np.ndarray, r: np.ndarray, profiles=None) -
         a, b = x[i] - half, x[i] + half
         entry = {"name": p.name, "unit": p.unit, "scale": "log10" if p.log else "linear",
                  "value": p.decode(x[i]), "vector": float(x[i]), "std_vector": sd,
-                 "ci95": [_decode(p, a), _decode(p, b)]}
+                 "ci95": [decode(p, a), decode(p, b)]}
         limit_no = NO_HALF_WIDTH if p.log else 0.5 * (hi[i] - lo[i])
         limit_weak = WEAK_HALF_WIDTH if p.log else 0.1 * (hi[i] - lo[i])
         others = [(abs(rho[i, j]), space.names[j]) for j in range(len(x)) if j != i]
@@ -107,7 +131,9 @@ def analyse(space, x: np.ndarray, J: np.ndarray, r: np.ndarray, profiles=None) -
             "t_quantile": t, "covariance_vector": np.where(np.isfinite(C), C, np.nan).tolist()}
 
 
-def _decode(p, x: float) -> float:
+def decode(p, x: float) -> float:
+    """A vector value in SI (a log-scale one clipped to 1e+-300: a half-width may be
+    unbounded)."""
     if p.log:
         x = float(np.clip(x, -300, 300))
     return p.decode(x)

@@ -11,7 +11,12 @@ enters the model in one of four ways (``Effect.kind``):
   model is evaluated (m);
 * ``measurement``: ``apply_measurement(receptance, theta, record) -> receptance`` acts after
   the model, on the (nf, n_out, n_pos) receptance the data are compared with (the sensor's
-  mounting, an additive noise floor);
+  mounting, an additive noise floor); a random additive term has two faces: its expected
+  level in dB (``apply_measurement``, what a transfer in dB is compared with) and its
+  expected band power (``apply_power``, what the EN 15461 decay rate of the data sums);
+  without ``apply_power`` both are the same operator; ``variance(receptance, theta,
+  record)`` (optional) gives the variance (dB^2) such a term adds to each FRF entry's
+  level: the residual's noise the structure test then expects;
 * ``campaign``: a ``spec`` effect whose change depends on each record's metadata (its
   temperature, its static load): it needs several records that differ in that covariate.
 
@@ -78,6 +83,8 @@ class Effect:
     parameters: tuple[EffectParameter, ...]
     apply: Callable | None = None
     apply_measurement: Callable | None = None
+    apply_power: Callable | None = None  # measurement: the band-power face (decay rate)
+    variance: Callable | None = None  # measurement: the dB^2 it adds to each FRF level
     geometry: Callable | None = None
     prior: Callable | None = None
     screened: bool = True  # False: left out of the default screen; named on request
