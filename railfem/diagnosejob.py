@@ -274,7 +274,7 @@ def markdown(s: dict, figs: list[str], title: str) -> str:
         h = c["held_out"]
         L += ["", f"Held-out error (mean squared scaled residual) {h['mse_ref']:.3g} -> "
               f"{h['mse']:.3g} ({100 * h['reduction']:.0f} % lower, paired t = {h['t']:.2f}, "
-              f"p = {h['p']:.2g}, {h['blocks']} blocks).", "",
+              f"p = {h['p']:.2g} (t-test or Wilcoxon, x2), {h['blocks']} blocks).", "",
               f"Residual RMS (dB) after, fitted: {json.dumps(_round(c['residual_rms_db']['fit']))}; "
               f"held out: {json.dumps(_round(c['residual_rms_db']['held']))}. Structure test "
               f"after: **{c['structure_test']['verdict']}** (structured part "

@@ -296,6 +296,12 @@ def test_small_blind_diagnosis(case):
         n = p["name"].split(".")[-1]
         if n in truth:
             assert p["ci95"][0] <= truth[n] <= p["ci95"][1], p
+            # the joint interval (Bonferroni over the effect's 2 parameters) holds the
+            # marginal one and is wider by t(0.9875)/t(0.975) ~ 1.14 on the vector scale
+            lo, hi = p["ci95_joint"]
+            assert lo < p["ci95"][0] and hi > p["ci95"][1]
+            w = np.log(hi / lo) / np.log(p["ci95"][1] / p["ci95"][0])
+            assert w == pytest.approx(2.241 / 1.960, rel=0.01)
     assert d.chosen_row["final_held_out"]["reduction"] >= 0.5
 
 
