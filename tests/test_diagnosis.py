@@ -156,6 +156,49 @@ def test_campaign_effects_follow_the_covariate():
     assert np.abs(a0 - a2).max() > 0.01 * np.abs(a0).max()
 
 
+def test_profile_interval_is_the_parabola_over_the_bracket_and_holds_the_estimate():
+    """A profile cost = a (v - v0)^2 on a coarse grid plus refinement points clustered near
+    the minimum whose costs carry the refits' tolerance (1e-3 of the threshold): the 95 %
+    interval is v0 +- sqrt(3.84 s2 / a) within 2 % of its half-width and holds the best
+    point (the parabola through the best three clustered points, the rule before, gave a
+    half-width 2.7 times too small here)."""
+    from railfem.diagnosis.refit import interval_from_profile
+
+    a, v0, s2 = 4.0e4, 0.1603, 1.0
+    rng = np.random.default_rng(2)
+    v = np.array([0.06, 0.10, 0.14, 0.18, 0.22, 0.1601, 0.1602, 0.1604])
+    c = a * (v - v0) ** 2 + np.where(v > 0.15, 0.00384 * rng.standard_normal(len(v)), 0)
+    order = np.argsort(v)
+    prof = {"values": list(v[order]), "cost": list(c[order]), "integer": False}
+    lo, hi = interval_from_profile(prof, s2)["ci95"]
+    half = np.sqrt(3.841 * s2 / a)
+    assert (hi - lo) / 2 == pytest.approx(half, rel=0.02)
+    assert (lo + hi) / 2 == pytest.approx(v0, abs=0.02 * half)
+    best = v[order][np.argmin(c[order])]
+    assert lo <= best <= hi
+
+
+def test_grid_inflation_sees_shared_noise_and_is_one_on_white_noise():
+    """A grid parameter's column in a linear least squares: noise shared by the 12 entries
+    of each cluster inflates its variance (robust / model-based ~ 1 + 11 rho, here ~ 6);
+    on white noise the factor stays near 1 (never below)."""
+    from railfem.diagnosis.refit import grid_inflation
+
+    rng = np.random.default_rng(3)
+    n_cl, per = 40, 12
+    xg = np.linspace(0, 1, n_cl * per)
+    J = np.column_stack([np.ones_like(xg), np.cos(5 * xg)])
+    col = np.sin(3 * xg)  # d r / d (grid value)
+    cl = np.repeat(np.arange(n_cl), per)
+    white = [grid_inflation(J, e, e + 0.01 * col, 0.01, cl)
+             for e in rng.standard_normal((50, len(xg)))]
+    shared = [grid_inflation(J, e, e + 0.01 * col, 0.01, cl)
+              for e in (rng.standard_normal((50, len(xg)))
+                        + 0.7 * rng.standard_normal((50, n_cl))[:, cl])]
+    assert min(white) >= 1.0 and np.median(white) < 1.3
+    assert np.median(shared) > 3.0
+
+
 def test_transfers_are_masked_by_band_level_not_by_single_lines():
     """A single line 80 dB below the point (a deep notch, or a floor's Rayleigh dip) in a
     band whose level is well above -60 dB stays compared; a position whose whole band is

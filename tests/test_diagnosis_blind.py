@@ -6,10 +6,11 @@ screened (effects='all': random_support too, which the default leaves out; the c
 random_support itself is always diagnosed that way). Generator: tests/blind/generators.py (the door);
 scoring: tests/blind/study.py.
 
-Criteria (issue 12): the right mechanism ranked first in >= 9/10; its parameters inside
-the reported 95 % intervals (>= 9/10 of the runs where it was chosen); held-out error down
->= 50 % (median); no effect claimed on clean data in >= 9/10; an effect outside the
-library: no claim ('explained') in >= 9/10."""
+Criteria (issue 12): the right mechanism ranked first in >= 9/10; its parameters all
+inside their reported joint 95 % intervals (Bonferroni over the effect's parameters) in
+>= 9/10 of the runs where it was chosen; held-out error down >= 50 % (median); no effect
+claimed on clean data in >= 9/10; an effect outside the library: 'unexplained' in >= 9/10
+and no false claim ('explained') in any."""
 import pytest
 
 from tests.blind import generators as g
@@ -37,4 +38,9 @@ def test_blind_effect_is_found(case):
 def test_blind_no_false_claim(case, effects):
     rows = [run_case(case, s, effects=effects) for s in SEEDS]
     claims = sum(r["claim"] is not None for r in rows)
-    assert claims <= 1, [(r["seed"], r["claim"]) for r in rows]
+    if case in OUTSIDE:
+        assert claims == 0, [(r["seed"], r["claim"]) for r in rows]
+        assert sum(r["verdict"] == "unexplained" for r in rows) >= 9, [r["verdict"]
+                                                                      for r in rows]
+    else:
+        assert claims <= 1, [(r["seed"], r["claim"]) for r in rows]

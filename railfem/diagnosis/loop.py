@@ -50,6 +50,7 @@ from railfem.diagnosis.evaluate import Evaluator
 from railfem.diagnosis.problem import BASE, Problem, noise_scale, table
 from railfem.diagnosis.refit import (REFINE_STEPS, Outcome,
                                      interval_from_profile, parabola_step, profile_eta_r,
+                                     profile_inflation,
                                      refit)
 from railfem.spec import TrackSpec, preset
 
@@ -227,7 +228,9 @@ def joint_profile(data, ev, spec_b, effect, start: Outcome, scale, gv) -> Outcom
     prof = {"values": [float(u) for u in v], "cost": [float(done[u].cost) for u in v],
             "value": float(best.grid[key]), "integer": False,
             "note": "rail loss factor refitted at every value"}
-    prof.update(interval_from_profile(prof, best.analysis["residual_variance"]))
+    prof["inflation"] = profile_inflation(best, key, prof)
+    prof.update(interval_from_profile(prof, best.analysis["residual_variance"]
+                                      * prof["inflation"]))
     best.grid_profiles = {key: prof}
     return best
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 import itertools
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy import stats
@@ -94,7 +94,8 @@ class Outcome:
         for p in eff:
             key = tuple(p["name"].split(".", 1))
             if key in self.grid_profiles:
-                iv = interval_from_profile(self.grid_profiles[key], s2,
+                prof = self.grid_profiles[key]
+                iv = interval_from_profile(prof, s2 * prof.get("inflation", 1.0),
                                            float(stats.chi2.ppf(level, 1)))
                 p["ci95_joint"] = iv["ci95"]
             elif np.isfinite(p.get("std_vector", np.inf)):
@@ -235,15 +236,48 @@ def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
                     prof["cost"][prof["values"].index(best[j])] = results[best][1]
     x, c, J = results[best]
     r = pb.residual(x)
-    analysis = uncertainty.analyse(pb.box, x, J, r, clusters=pb.clusters())
+    clusters = pb.clusters()
+    analysis = uncertainty.analyse(pb.box, x, J, r, clusters=clusters)
     s2 = analysis["residual_variance"]
     for k, prof in profiles.items():
-        prof.update(interval_from_profile(prof, s2))
+        if not prof["integer"] and len(prof["values"]) > 1:
+            j = keys.index(k)
+            nb = best[:j] + (_nearest_other(prof["values"], best[j]),) + best[j + 1:]
+            prof["inflation"] = grid_inflation(J, r, problem_for(nb).residual(x),
+                                               nb[j] - best[j], clusters)
+        prof.update(interval_from_profile(prof, s2 * prof.get("inflation", 1.0)))
     k = len(x) + len(keys) + 1  # + the rail loss factor (fitted with the base)
     return Outcome(effects=effects, grid=dict(zip(keys, best)), x=x,
                    eta_r=float(spec.rail.eta), cost=c, n=len(r) - pb.n_prior(), k=k,
                    problem=pb,
                    analysis=analysis, grid_profiles=profiles)
+
+
+def _nearest_other(values, v):
+    return min((u for u in values if u != v), key=lambda u: abs(u - v))
+
+
+def grid_inflation(J, r, r_nb, step, clusters) -> float:
+    """Variance inflation of a profiled grid parameter: with its column (r_nb - r) / step
+    (the residual at the neighbouring grid value, the rest held) added to the Jacobian, the
+    cluster-robust over the model-based variance of that parameter, at least 1. The profile
+    interval's threshold (chi^2 s^2) is scaled by it, as the continuous parameters take
+    the larger of the two variances."""
+    Jx = np.column_stack([J, (r_nb - r) / step])
+    _, C_diag, *_ = uncertainty.covariance(Jx, r)
+    C_rob, _ = uncertainty.robust_covariance(Jx, r, clusters)
+    ratio = C_rob[-1, -1] / C_diag[-1] if np.isfinite(C_diag[-1]) and C_diag[-1] > 0 else 1.0
+    return float(max(1.0, ratio))
+
+
+def profile_inflation(o: Outcome, key, prof: dict) -> float:
+    """grid_inflation of the grid parameter ``key`` of a refitted model, its profile
+    ``prof`` giving the neighbouring value (one more evaluation there)."""
+    pb = o.problem
+    vn = _nearest_other(prof["values"], o.grid[key])
+    r = pb.residual(o.x)
+    r_nb = replace(pb, grid={**pb.grid, key: vn}).residual(o.x)
+    return grid_inflation(_jacobian(pb, o.x), r, r_nb, vn - o.grid[key], pb.clusters())
 
 
 def _profile_grid(keys, values, best, results, problem_for, x_base, refine_steps):
@@ -322,13 +356,20 @@ def interval_from_profile(prof: dict, s2: float, threshold: float = CHI2_95) -> 
         if d[a + 1] >= threshold:
             hi = v[a] + (threshold - d[a]) * (v[a + 1] - v[a]) / (d[a + 1] - d[a])
             break
-    if 0 < k < len(v) - 1:  # the parabola through the best three: a finer interval
-        A = np.vstack([v[k - 1:k + 2] ** 2, v[k - 1:k + 2], np.ones(3)]).T
-        a, b, _ = np.linalg.solve(A, c[k - 1:k + 2])
+    if lo is not None and hi is not None:
+        # a finer interval from the parabola fitted (least squares) to every profile point
+        # from the bracketing point below to the one above: refinement steps cluster points
+        # near the minimum, where a parabola through the best three follows the refits'
+        # tolerance instead of the profile
+        a_, b_ = np.flatnonzero(v <= lo)[-1], np.flatnonzero(v >= hi)[0]
+        xs, cs = v[a_:b_ + 1], c[a_:b_ + 1]
+        a, b, _ = np.linalg.lstsq(np.vstack([xs ** 2, xs, np.ones_like(xs)]).T, cs,
+                                  rcond=None)[0]
         if a > 0:
             half = math.sqrt(threshold * s2 / a)
             vertex = -b / (2 * a)
-            lo, hi = vertex - half, vertex + half
+            # the interval holds the reported (best) value whatever the parabola says
+            lo, hi = min(vertex - half, v[k]), max(vertex + half, v[k])
     open_ = [s for s, x in (("low", lo), ("high", hi)) if x is None]
     return {"ci95": [float(v[0] if lo is None else lo), float(v[-1] if hi is None else hi)],
             "identifiable": "yes" if not open_ else ("weak" if len(open_) == 1 else "no"),
