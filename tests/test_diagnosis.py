@@ -201,18 +201,20 @@ def test_grid_inflation_sees_shared_noise_and_is_one_on_white_noise():
 
 def test_transfers_are_masked_by_band_level_not_by_single_lines():
     """A single line 80 dB below the point (a deep notch, or a floor's Rayleigh dip) in a
-    band whose level is well above -60 dB stays compared; a position whose whole band is
-    70 dB down is not compared anywhere in that band."""
+    band whose level is well above -60 dB stays compared, one 110 dB below does not; a
+    position whose whole band is 70 dB down is not compared anywhere in that band."""
     f = g.frequencies()
     Y, pos = g.clean(g.truth_spec(), f)
     b = np.flatnonzero((f >= 447) & (f < 562))  # the 500 Hz band
     Y[b[1], 0, 3] = 1e-4 * np.abs(Y[b[1], 0, 0])
+    Y[b[2], 0, 3] = 10 ** (-110 / 20) * np.abs(Y[b[2], 0, 0])  # below any test's range
     Y[b, 0, 4] = 10 ** (-70 / 20) * np.abs(Y[b, 0, 0])
     t = prepare(g.measurement(Y, pos, f)).records[0].fit
     idx = list(t.transfer_index)
     assert np.isfinite(t.transfer[b[1], 0, idx.index(3)])
     assert np.all(np.isnan(t.transfer[b, 0, idx.index(4)]))
-    assert np.all(np.isfinite(t.transfer[b, 0, idx.index(3)]))
+    assert np.isnan(t.transfer[b[2], 0, idx.index(3)])
+    assert np.isfinite(t.transfer[b[0], 0, idx.index(3)])
 
 
 def test_noise_floor_operators_are_the_expected_log_magnitude_and_power():
