@@ -38,7 +38,8 @@ class Prediction:
 
 def table(target, prediction: Prediction) -> dict:
     """railfem.identify.data.residual_table of a Prediction."""
-    return fdata.residual_table(target, prediction.level, power=prediction.power)
+    power = None if prediction.power is prediction.level else prediction.power
+    return fdata.residual_table(target, prediction.level, power=power)
 
 
 class Box:

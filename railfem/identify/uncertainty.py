@@ -7,9 +7,10 @@ parameter vector: log10 of stiffnesses, masses and loss factors, metres for a le
 
 (or, where entries share noise, the larger of C_ii and the cluster-robust sandwich
 variance, robust_covariance) and the 95 % interval of x_i is x_i +- t_(0.975, N-p)
-sqrt(C_ii), mapped back to SI (a multiplicative interval for log-scale parameters). J^T J is inverted through the SVD of J
-with singular values below 1e-10 of the largest dropped (their directions carry no
-information; the affected parameters are reported not identifiable).
+sqrt(C_ii), mapped back to SI (a multiplicative interval for log-scale parameters). J^T J
+is inverted through the SVD of J with singular values below 1e-10 of the largest dropped
+(their directions carry no information; the affected parameters are reported not
+identifiable).
 
 Identifiability (railfem's rules, stated in every report):
 
@@ -35,15 +36,23 @@ WEAK_CORRELATION = 0.95
 BOUND_TOL = 1e-6  # in vector units
 
 
+def _normal_inverse(J: np.ndarray):
+    """(A^-1, singular values, V^T, kept) with A = J^T J inverted through the SVD of J,
+    singular values below DROP_RATIO of the largest dropped."""
+    _, sv, Vt = np.linalg.svd(J, full_matrices=False)
+    keep = (sv > DROP_RATIO * sv.max() if sv.size and sv.max() > 0
+            else np.zeros(len(sv), bool))
+    inv = np.where(keep, 1.0 / np.where(keep, sv, 1.0) ** 2, 0.0)
+    return (Vt.T * inv) @ Vt, sv, Vt, keep
+
+
 def covariance(J: np.ndarray, r: np.ndarray):
-    """(C, s2, dof, singular values, V) of the linearised fit."""
+    """(C, C_ii, s2, dof, singular values, V^T) of the linearised fit."""
     n, p = J.shape
     dof = max(n - p, 1)
     s2 = float(r @ r) / dof
-    U, sv, Vt = np.linalg.svd(J, full_matrices=False)
-    keep = sv > DROP_RATIO * sv.max() if sv.size and sv.max() > 0 else np.zeros(p, bool)
-    inv = np.where(keep, 1.0 / np.where(keep, sv, 1.0) ** 2, 0.0)
-    C = (Vt.T * inv) @ Vt * s2
+    Ainv, sv, Vt, keep = _normal_inverse(J)
+    C = Ainv * s2
     big = np.where(keep, 0.0, np.inf)  # dropped directions: unbounded variance
     C_diag = np.diag(C) + (Vt.T ** 2 @ big)
     return C, C_diag, s2, dof, sv, Vt
@@ -53,12 +62,10 @@ def robust_covariance(J: np.ndarray, r: np.ndarray, clusters: np.ndarray):
     """(C, G): the cluster-robust (sandwich) covariance A^-1 M A^-1, A = J^T J and
     M = G/(G-1) sum_g (J_g^T r_g)(J_g^T r_g)^T over the G clusters (entries whose noise may
     be shared: a decay rate and the FRFs it was computed from). It needs no s^2 and holds
-    when entries within a cluster are correlated; A^-1 is the pseudo-inverse of covariance."""
+    when entries within a cluster are correlated or of unequal variance."""
     clusters = np.asarray(clusters)
     G = int(clusters.max()) + 1 if clusters.size else 0
-    U, sv, Vt = np.linalg.svd(J, full_matrices=False)
-    keep = sv > DROP_RATIO * sv.max() if sv.size and sv.max() > 0 else np.zeros(len(sv), bool)
-    Ainv = (Vt.T * np.where(keep, 1.0 / np.where(keep, sv, 1.0) ** 2, 0.0)) @ Vt
+    Ainv = _normal_inverse(J)[0]
     S = np.zeros((G, J.shape[1]))
     np.add.at(S, clusters, J * r[:, None])
     M = S.T @ S * (G / max(G - 1, 1))
