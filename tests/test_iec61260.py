@@ -6,6 +6,7 @@ import pytest
 from railfem.standards.iec61260 import (
     NOMINAL_THIRD_OCTAVE_CENTRES_HZ,
     band_average,
+    band_index,
     nominal_centre,
     ninth_octave_grid,
     third_octave_bands,
@@ -106,3 +107,17 @@ def test_band_average_shape_errors():
     bands = third_octave_bands(100, 400)
     with pytest.raises(ValueError, match="axis 0"):
         band_average(np.arange(1, 11.0), np.ones((3, 10)), bands)
+
+
+def test_band_index_agrees_with_band_average_membership():
+    """A band's lower edge belongs to it (half-open, as band_average); points outside
+    every band get -1; the index is where band_average puts a point."""
+    bands = third_octave_bands(100.0, 1000.0)
+    f = np.array([10.0, bands.lower[0], bands.lower[1], 500.0, 5000.0])
+    k = band_index(f, bands)
+    assert k[0] == -1 and k[-1] == -1
+    assert k[1] == 0 and k[2] == 1
+    one = np.zeros((len(f), 1))
+    one[3] = 1.0
+    avg = band_average(f, one, bands, on_empty="nan")[:, 0]
+    assert np.nanargmax(avg) == k[3]

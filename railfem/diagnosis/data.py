@@ -28,6 +28,7 @@ from railfem.estimators.passby import PassbyDecayRate
 from railfem.identify import data as fdata
 from railfem.measurement import (DecayRateMeasurement, DecayRateTable, HammerMeasurement,
                                  Metadata)
+from railfem.standards import iec61260
 
 HOLD_EVERY = 3
 DYNAMIC_RANGE_DB = 60.0
@@ -123,10 +124,7 @@ def _mask(target: fdata.Target) -> fdata.Target:
     100 dB and more where the track attenuates fast, far below what any test resolves and
     where the eigen form loses its digits (a floor 60 dB under the point has such dips once
     in 10^6 lines)."""
-    f, bands = target.frequency, target.bands
-    k = np.full(len(f), -1)
-    for i, (lo, hi) in enumerate(zip(bands.lower, bands.upper)):
-        k[(f >= lo) & (f < hi)] = i
+    k = iec61260.band_index(target.frequency, target.bands)
     tr = np.abs(target.transfer)
     pt = np.abs(target.point)[:, :, None]
     level, ref = tr.copy(), np.broadcast_to(pt, tr.shape).copy()

@@ -18,6 +18,7 @@ import numpy as np
 from railfem.identify import data as fdata
 from railfem.identify.fit import FIT_BOUNDS
 from railfem.params import Parameter
+from railfem.standards import iec61260
 
 BASE = ("kp", "eta_p", "kb", "eta_b")
 MIN_SCALE = 0.1  # dB
@@ -207,7 +208,7 @@ class Problem:
         band) is one cluster; each prior entry is its own."""
         labels = []
         for r in self.data.records:
-            for q, lab in cluster_labels(r.fit).items():
+            for lab in cluster_labels(r.fit).values():
                 labels += [f"{r.name}|{v}" for v in lab]
         labels += [f"prior|{i}" for i in range(self.n_prior())]
         return np.unique(np.array(labels, dtype=object), return_inverse=True)[1]
@@ -247,14 +248,10 @@ def cluster_labels(target) -> dict:
     """Per quantity, in the order of ``residuals``, the label 'sensor|band' of each used
     entry (the band of the decay rate; of the frequency for FRF entries)."""
     n_out = len(target.outputs)
-    f = target.frequency
+    band = -1 - np.arange(len(target.frequency))  # a frequency outside every band: its own
     if target.bands is not None:
-        band = np.full(len(f), -1)
-        for k, (lo, hi) in enumerate(zip(target.bands.lower, target.bands.upper)):
-            band[(f >= lo) & (f < hi)] = k
-        band = np.where(band >= 0, band, -1 - np.arange(len(f)))  # outside: its own
-    else:
-        band = -1 - np.arange(len(f))
+        k = iec61260.band_index(target.frequency, target.bands)
+        band = np.where(k >= 0, k, band)
     out = {}
     for q in (q for q in fdata.QUANTITIES if q in target.use):  # residual_table's order
         used = used_entries(target, q)

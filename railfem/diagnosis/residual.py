@@ -23,10 +23,10 @@ It also estimates the white part of the residual from first differences over fre
 (sigma_w = 1.4826 MAD(r_i - r_i-1) / sqrt 2: smooth structure cancels in differences of
 neighbours and sharp local misfits do not move a median) and
 the structured RMS sqrt(max(0, mean (r^2 - v) - sigma_w^2)) in dB (the mean weighted by
-1 / (sigma_w^2 + v)^2), v the variance the model itself expects an entry to scatter by (``Block.variance``, from a measurement
-effect with a random term: the noise floor's log-Rayleigh scatter, 5.6 dB under the
-floor; 0 elsewhere; such entries enter the correlation test over their expected SD
-sqrt(sigma_w^2 + v)); where repeats exist the
+1 / (sigma_w^2 + v)^2), v the variance the model itself expects an entry to scatter by
+(``Block.variance``, from a measurement effect with a random term: the noise floor's
+log-Rayleigh scatter, 5.6 dB under the floor; 0 elsewhere; such entries enter the
+correlation test over their expected SD sqrt(sigma_w^2 + v)); where repeats exist the
 structured RMS is sqrt(mean max(0, r^2 - s_b^2)) instead: what exceeds the repeat
 scatter band by band (the repeats measure the noise directly; band-to-band differences of
 a decay rate are not noise).

@@ -167,6 +167,16 @@ def ninth_octave_grid(f_low: float, f_high: float) -> np.ndarray:
     return REFERENCE_FREQUENCY_HZ * 10.0 ** (m / 30.0)
 
 
+def band_index(frequency: np.ndarray, bands: ThirdOctaveBands) -> np.ndarray:
+    """The index of the band each narrow-band frequency belongs to (``lower <= f < upper``,
+    as in band_average), -1 outside every band."""
+    f = np.asarray(frequency, dtype=float)
+    k = np.full(f.shape, -1)
+    for i, (lo, hi) in enumerate(zip(bands.lower, bands.upper)):
+        k[(f >= lo) & (f < hi)] = i
+    return k
+
+
 def band_average(
     frequency: np.ndarray,
     values: np.ndarray,
