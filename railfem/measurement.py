@@ -269,6 +269,19 @@ class HammerMeasurement:
         self.sensor(sensor)
         return self.frf.values[:, self.frf.response.index(sensor), :]
 
+    def with_positions(self, indices) -> HammerMeasurement:
+        """The same measurement restricted to the hammer positions ``indices`` (into
+        ``positions``; the point FRF, index 0, is always kept and comes first)."""
+        idx = np.asarray(indices, dtype=int).ravel()
+        if idx.size and (idx.min() < 0 or idx.max() >= len(self.positions)):
+            raise ValueError(f"position indices {idx.tolist()} are outside 0..."
+                             f"{len(self.positions) - 1}: give indices into positions")
+        keep = np.unique(np.concatenate([[0], idx]))
+        f = self.frf
+        frf = replace(f, values=f.values[:, :, keep], force=tuple(f.force[k] for k in keep),
+                      force_x=None if f.force_x is None else f.force_x[keep])
+        return replace(self, frf=frf, positions=self.positions[keep])
+
     def with_sensors(self, names: str | Sequence[str]) -> HammerMeasurement:
         """The same measurement restricted to the sensors ``names``."""
         names = [names] if isinstance(names, str) else list(names)

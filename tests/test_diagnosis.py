@@ -82,15 +82,25 @@ def test_random_support_prior_and_deviations():
     th = {p.name: 1.0 for p in e.parameters}
     assert np.all(e.prior(th) == 0)
     th[rs.name("kb", -2)], th[rs.name("kp", 3)] = np.e, 0.5
+    first, last = rs.BLOCKS[1]
+    n = last - first + 1
+    th[rs.block_name("kp", rs.BLOCKS[1])] = 2.0
     pri = e.prior(th)
-    assert len(pri) == 2 * len(rs.INDICES)
+    assert len(pri) == 2 * (len(rs.INDICES) + len(rs.BLOCKS)) == len(e.parameters)
+    # a block is the mean of its n supports: its prior SD is PRIOR_SD / sqrt(n)
     assert sorted(np.round(pri[pri != 0], 9)) == sorted(np.round(
-        [1 / rs.PRIOR_SD["kb"], np.log(0.5) / rs.PRIOR_SD["kp"]], 9))
+        [1 / rs.PRIOR_SD["kb"], np.log(0.5) / rs.PRIOR_SD["kp"],
+         np.log(2.0) * np.sqrt(n) / rs.PRIOR_SD["kp"]], 9))
     spec = e.apply(g.truth_spec().replace(deviations=(rf.SupportDeviation(index=40, kb=0.1),)),
                    th)
     devs = {d.index: d for d in spec.deviations}
-    assert set(devs) == set(rs.INDICES) | {40}
+    blocks = {i for a, b in rs.BLOCKS for i in range(a, b + 1)}
+    assert set(devs) == set(rs.INDICES) | blocks | {40}
     assert devs[-2].kb == pytest.approx(np.e) and devs[3].kp == 0.5 and devs[40].kb == 0.1
+    assert all(devs[i].kp == 2.0 and devs[i].kb == 1.0 for i in range(first, last + 1))
+    assert rs.deviation_of(rs.block_name("kb", rs.BLOCKS[1])) == (tuple(range(first, last + 1)),
+                                                                  "kb")
+    assert rs.deviation_of(rs.name("kp", -2)) == ((-2,), "kp")
     sc = rs.scatter(th)
     assert sc["kb"] == pytest.approx(np.sqrt(1 / len(rs.INDICES)))
 
@@ -211,10 +221,35 @@ def test_transfers_are_masked_by_band_level_not_by_single_lines():
     Y[b, 0, 4] = 10 ** (-70 / 20) * np.abs(Y[b, 0, 0])
     t = prepare(g.measurement(Y, pos, f)).records[0].fit
     idx = list(t.transfer_index)
-    assert np.isfinite(t.transfer[b[1], 0, idx.index(3)])
-    assert np.all(np.isnan(t.transfer[b, 0, idx.index(4)]))
-    assert np.isnan(t.transfer[b[2], 0, idx.index(3)])
-    assert np.isfinite(t.transfer[b[0], 0, idx.index(3)])
+    k3, k4 = (idx.index(int(np.flatnonzero(np.isclose(t.positions, pos[i]))[0]))
+              for i in (3, 4))
+    assert np.isfinite(t.transfer[b[1], 0, k3])
+    assert np.all(np.isnan(t.transfer[b, 0, k4]))
+    assert np.isnan(t.transfer[b[2], 0, k3])
+    assert np.isfinite(t.transfer[b[0], 0, k3])
+
+
+def test_held_out_transfers_do_not_enter_the_fit():
+    """The fitted part of a hammer record (point, fitted transfers and the EN 15461 decay
+    rate) is the same whatever the held-out transfers hold: scaling them by 10 changes
+    nothing fitted (the decay rate over all positions moved by up to 19 dB/m); the
+    held-out part holds exactly the positions the fit does not, and the model's decay rate
+    sums over the same positions as the data's."""
+    f = g.frequencies()
+    Y, pos = g.clean(g.truth_spec(), f)
+    rec = prepare(g.measurement(Y, pos, f)).records[0]
+    held = np.isin(pos, rec.held_positions)
+    assert held.sum() == len(rec.held_positions) >= 5
+    fitted = rec.fit.positions[rec.fit.transfer_index]
+    assert not np.any(np.isin(fitted, rec.held_positions))
+    assert not rec.fit.tdr_used[:, :, held].any() and rec.fit.tdr_used[:, :, ~held].any()
+    Y2 = Y.copy()
+    Y2[:, :, held] *= 10.0
+    rec2 = prepare(g.measurement(Y2, pos, f)).records[0]
+    for q in ("point", "transfer", "tdr"):
+        a, b_ = getattr(rec.fit, q), getattr(rec2.fit, q)
+        assert np.array_equal(np.isnan(a), np.isnan(b_)) and np.allclose(a, b_, equal_nan=True)
+    assert not np.allclose(rec.held.transfer, rec2.held.transfer, equal_nan=True)
 
 
 def test_noise_floor_operators_are_the_expected_log_magnitude_and_power():
@@ -501,6 +536,18 @@ def test_scatter_test_against_repeat_scatter():
     assert big["verdict"] == "structure"
     assert big["structured_rms_db"] == pytest.approx(np.sqrt(np.mean(np.maximum(
         (3 * 0.5) ** 2 * rng.standard_normal(100000) ** 2 - 0.25, 0))), rel=0.15)
+
+
+def test_parabola_vertex_gives_the_minimum_between_lattice_points():
+    """The interpolated profile minimum (joint pad-length profile): exact on a parabola
+    whose vertex lies between the points, never above the best point, None at an end."""
+    from railfem.diagnosis.refit import parabola_vertex
+
+    q = {x: 3e6 * (x - 0.0123) ** 2 + 819.0 for x in (0.0, 0.01, 0.02, 0.05)}
+    x, c = parabola_vertex(q)
+    assert x == pytest.approx(0.0123, abs=1e-12) and c == pytest.approx(819.0, abs=1e-6)
+    assert min(q.values()) - c == pytest.approx(3e6 * 0.0023 ** 2)  # the lattice's excess
+    assert parabola_vertex({0.0: 0.0, 0.5: 1.0, 1.0: 2.0}) is None
 
 
 def test_parabola_step_finds_the_vertex_and_stops_at_ends():

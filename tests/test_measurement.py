@@ -29,6 +29,13 @@ def test_hammer_measurement_holds_geometry():
     assert m.sensor_names == ("head", "foot")
     assert m.transfer("foot").shape == (3, 4)
     assert m.with_sensors("foot").frf.shape == (3, 1, 4)
+    sub = m.with_positions([3, 1])  # the point stays first, the order is the positions'
+    assert sub.positions.tolist() == [0.02, 0.15, 0.45]
+    assert sub.frf.force == ("p0", "p1", "p3") and sub.frf.force_x.tolist() == pytest.approx(
+        [0.32, 0.45, 0.75])
+    assert m.positions.tolist() == [0.02, 0.15, 0.3, 0.45]  # the original is untouched
+    with pytest.raises(ValueError, match="outside 0...3"):
+        m.with_positions([4])
     assert not m.positions.flags.writeable
     with pytest.raises(KeyError, match="no sensor 'rail'"):
         m.sensor("rail")

@@ -140,7 +140,9 @@ def _mask(target: fdata.Target) -> fdata.Target:
 
 def hammer_record(meas: HammerMeasurement, name: str = "hammer", *, sensors=None,
                   f_range=None, hold_every: int = HOLD_EVERY, **options) -> Record:
-    """A Record of a hammer test: point, decay rate and the transfers not held out fitted."""
+    """A Record of a hammer test: point, decay rate and the transfers not held out fitted
+    (the decay rate over the point and the fitted positions: nothing of the held-out
+    transfers enters the fit)."""
     if hold_every < 2:
         raise ValueError(f"hold_every = {hold_every!r}: hold out every n-th transfer position "
                          "with n >= 2")
@@ -152,8 +154,11 @@ def hammer_record(meas: HammerMeasurement, name: str = "hammer", *, sensors=None
         raise ValueError(f"the hammer test has {len(pos)} positions: too few to hold some out "
                          "(need at least 4)")
     common = dict(sensors=sensors, f_range=f_range, **options)
+    # the fitted decay rate is the EN 15461 sum over the fitted positions only: over all of
+    # them it would carry the held-out transfers into the fit (in aggregate, per band)
     fit = _mask(fdata.hammer_target(meas, use=("point", "transfer", "tdr"),
-                                    transfer_positions=pos[fitted], **common))
+                                    transfer_positions=pos[fitted], tdr_positions=fitted,
+                                    **common))
     held_t = _mask(fdata.hammer_target(meas, use=("transfer",), transfer_positions=pos[held],
                                        **common))
     covs = {k: (v, v) for k, v in _covariate_values(meas.metadata).items()}

@@ -134,8 +134,8 @@ class Problem:
         return Prediction(level=level, power=power, variance=var)
 
     def _tangent_parameters(self) -> dict:
-        """{vector index: (support index, 'kp' | 'kb')} of the parameters that are the
-        log10 of a support's factor (Effect.deviation_of)."""
+        """{vector index: ((support indices), 'kp' | 'kb')} of the parameters that are the
+        log10 of a factor on some supports' stiffness (Effect.deviation_of)."""
         out = {}
         for i, p in enumerate(self.box.parameters[len(BASE):], start=len(BASE)):
             e, n = p.name.split(".", 1)
@@ -169,8 +169,10 @@ class Problem:
             xi[i] += step
             if i in tp:  # along the closed-form tangent (log10 -> ln: a factor ln 10)
                 thi = self.thetas(xi)
+                ids, which = tp[i]
                 pred = {r.name: self._measured(a0[r.name] + step * math.log(10)
-                                               * got[r.name][1][tp[i]], thi, r)
+                                               * sum(got[r.name][1][(j, which)] for j in ids),
+                                               thi, r)
                         for r in self.data.records}
                 J[:, i] = (self.residual(xi, prediction=pred) - r0) / step
             else:

@@ -52,6 +52,10 @@ class Outcome:
     analysis: dict
     grid_profiles: dict
     eta_r_profile: dict | None = None
+    # the cost at the rail loss factor interpolated between the profiled kernels (the
+    # vertex of the parabola through the best and its neighbours; profile_eta_r): the
+    # profile's value without the error of its last lattice step
+    profile_cost: float | None = None
 
     @property
     def name(self) -> str:
@@ -378,21 +382,31 @@ def interval_from_profile(prof: dict, s2: float, threshold: float = CHI2_95) -> 
 
 
 
-def parabola_step(costs: dict, tol: float) -> float | None:
-    """The next value of a 1-D profile {value: cost}: the vertex of the parabola through the
-    best point and its two neighbours, kept between them; None when the best point is at an
-    end, the parabola opens downwards or the vertex is within ``tol`` of a known value."""
+def parabola_vertex(costs: dict) -> tuple[float, float] | None:
+    """(value, cost) at the vertex of the parabola through the best point of a 1-D profile
+    {value: cost} and its two neighbours, the value kept between them (the cost then that
+    of the parabola there, never above the best point's); None when the best point is at
+    an end or the parabola opens downwards."""
     v = np.array(sorted(costs))
     c = np.array([costs[x] for x in v])
     k = int(np.argmin(c))
     if not 0 < k < len(v) - 1:
         return None
     A = np.vstack([v[k - 1:k + 2] ** 2, v[k - 1:k + 2], np.ones(3)]).T
-    a, b, _ = np.linalg.solve(A, c[k - 1:k + 2])
+    a, b, c0 = np.linalg.solve(A, c[k - 1:k + 2])
     if a <= 0:
         return None
-    new = float(np.clip(-b / (2 * a), v[k - 1], v[k + 1]))
-    return None if min(abs(new - v)) < tol else new
+    x = float(np.clip(-b / (2 * a), v[k - 1], v[k + 1]))
+    return x, float(min(a * x * x + b * x + c0, c[k]))
+
+
+def parabola_step(costs: dict, tol: float) -> float | None:
+    """The next value of a 1-D profile {value: cost}: parabola_vertex's value; None when
+    there is none or it is within ``tol`` of a known value."""
+    vx = parabola_vertex(costs)
+    if vx is None:
+        return None
+    return None if min(abs(vx[0] - np.array(list(costs)))) < tol else vx[0]
 
 def profile_eta_r(data, evaluator, spec, effects, outcome: Outcome, scale, *,
                   max_steps: int | None = None, step: float = ETA_R_LATTICE,
@@ -444,6 +458,8 @@ def profile_eta_r(data, evaluator, spec, effects, outcome: Outcome, scale, *,
     v = np.array(sorted(done))
     c = np.array([done[x].cost for x in v])
     best = done[v[int(np.argmin(c))]]
+    vx = parabola_vertex({x: done[x].cost for x in done})
+    best.profile_cost = best.cost if vx is None else vx[1]
     if len(v) < 2:
         return best
     s2 = best.analysis["residual_variance"]

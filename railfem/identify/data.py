@@ -210,7 +210,7 @@ def nearest_positions(positions: np.ndarray, wanted) -> np.ndarray:
 def hammer_target(meas: HammerMeasurement, *, use=("point", "transfer", "tdr"),
                   sensors=None, transfer_positions=None, f_range=None, band_weights=None,
                   exclusion=tdr_estimator.NoiseFloorExclusion(), point: str = "nominal",
-                  sensor_map=None) -> Target:
+                  sensor_map=None, tdr_positions=None) -> Target:
     """A Target from a hammer measurement.
 
     sensors: sensor names used (default all); sensor_map: {name: 'head'|'foot'} where the
@@ -218,7 +218,9 @@ def hammer_target(meas: HammerMeasurement, *, use=("point", "transfer", "tdr"),
     measured transfers are fitted (default d/2, d, 2d, 4d with d the sleeper spacing).
     f_range: (low, high) Hz of the FRF points fitted. exclusion, point: the EN 15461
     options of the data's decay rate (railfem.estimators.tdr.hammer); the model's decay
-    rate uses the same positions and weights."""
+    rate uses the same positions and weights. tdr_positions: indices of the positions the
+    decay rate sums over (the point always; default all), e.g. to keep held-out transfers
+    out of it."""
     names = list(meas.sensor_names if sensors is None else
                  ([sensors] if isinstance(sensors, str) else sensors))
     smap = dict(sensor_map or {})
@@ -241,10 +243,14 @@ def hammer_target(meas: HammerMeasurement, *, use=("point", "transfer", "tdr"),
     t_idx = nearest_positions(meas.positions, wanted)
     tdr = used = None
     if "tdr" in use:
-        res = [tdr_estimator.hammer(meas, n, exclusion=exclusion, bands=bands, point=point)
+        keep = (np.arange(len(meas.positions)) if tdr_positions is None else
+                np.unique(np.concatenate([[0], np.asarray(tdr_positions, dtype=int)])))
+        sub = meas.with_positions(keep)
+        res = [tdr_estimator.hammer(sub, n, exclusion=exclusion, bands=bands, point=point)
                for n in names]
         tdr = np.stack([np.where(r.suitable, r.decay_rate, np.nan) for r in res], axis=1)
-        used = np.stack([r.used for r in res], axis=1)
+        used = np.zeros((len(bands.nominal), len(names), len(meas.positions)), dtype=bool)
+        used[:, :, keep] = np.stack([r.used for r in res], axis=1)
     return Target(frequency=f, outputs=outputs, sensor_x=float(meas.sensor_x),
                   positions=np.asarray(meas.positions, dtype=float), use=tuple(use),
                   point=Y[:, :, 0], transfer=Y[:, :, t_idx], transfer_index=t_idx,

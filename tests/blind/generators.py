@@ -98,6 +98,7 @@ CASES = {
     "random_support": {"sd_kp": 0.15, "sd_kb": 0.3},
 }
 RANDOM_SPAN = range(-65, 66)  # supports scattered by random_support (the default 131)
+SCORED_SPAN = range(-3, 11)  # the supports random_support fits one by one
 
 
 def random_factors(seed: int, p=CASES["random_support"]) -> dict:
@@ -111,12 +112,13 @@ def random_factors(seed: int, p=CASES["random_support"]) -> dict:
 
 def truth(case: str, seed: int) -> dict:
     """The parameters of the case the diagnosis should recover (named as its effect names
-    them); for random_support the realised factors near the sensor (supports -2..8)."""
+    them); for random_support the realised factors of the supports the effect fits one by
+    one (SCORED_SPAN; its blocks beyond are means of many supports and are not scored)."""
     if case != "random_support":
         return dict(CASES[case])
     out = dict(CASES[case])
     for i, (kp, kb) in random_factors(seed).items():
-        if -2 <= i <= 8:
+        if i in SCORED_SPAN:
             tag = f"{'m' if i < 0 else ''}{abs(i)}"
             out[f"kp_{tag}"], out[f"kb_{tag}"] = kp, kb
     return out

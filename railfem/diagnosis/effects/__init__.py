@@ -28,8 +28,9 @@ has no EffectParameter. A numeric grid value may be refined between its best nei
 ``prior(theta) -> array`` (optional) adds dimensionless residual entries to the fit: a
 Gaussian prior that shrinks weakly identified parameters towards their mean (random
 effects, e.g. the stiffness of each support of a randomly inhomogeneous track).
-``deviation_of(name) -> (support index, 'kp' | 'kb')`` says that a parameter is the factor
-on that support's stiffness (log scale): the refit then differentiates it in closed form.
+``deviation_of(name) -> (support indices, 'kp' | 'kb')`` says that a parameter is the factor
+on those supports' stiffness (log scale; one support, or a block sharing one factor): the
+refit then differentiates it in closed form.
 ``screened=False`` leaves an effect out of the default search (it must be named): for
 costly effects with tens of parameters.
 """
@@ -88,7 +89,7 @@ class Effect:
     geometry: Callable | None = None
     prior: Callable | None = None
     screened: bool = True  # False: left out of the default screen; named on request
-    deviation_of: Callable | None = None  # parameter name -> (support index, 'kp' | 'kb')
+    deviation_of: Callable | None = None  # parameter name -> ((support indices), 'kp' | 'kb')
     grid: dict = field(default_factory=dict)
     needs: tuple[str, ...] = ()
     quantities: tuple[str, ...] = ("point", "phase", "transfer", "tdr")
