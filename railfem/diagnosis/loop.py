@@ -53,6 +53,7 @@ from railfem.diagnosis.refit import (REFINE_STEPS, Outcome,
                                      profile_inflation,
                                      refit)
 from railfem.spec import TrackSpec, preset
+from railfem.standards import iec61260
 
 log = logging.getLogger(__name__)
 
@@ -145,8 +146,9 @@ def held_gate(ref: Outcome, cand: Outcome, pred_ref=None, pred_c=None) -> dict:
                 a3 = a.reshape(a.shape[0], a.shape[1], -1)
                 b3 = b.reshape(b.shape[0], b.shape[1], -1)
                 cells = []
-                for lo, hi in zip(t.bands.lower, t.bands.upper):
-                    m = (t.frequency >= lo) & (t.frequency < hi)
+                band = iec61260.band_index(t.frequency, t.bands)
+                for kb in range(len(t.bands.nominal)):
+                    m = band == kb
                     for o in range(a3.shape[1]):
                         for j in range(a3.shape[2]):
                             cells.append((a3[m, o, j], b3[m, o, j]))

@@ -192,9 +192,8 @@ def _band_weights(bands, band_weights) -> np.ndarray:
 
 
 def _frf_weights(frequency, bands, band_w, f_range) -> np.ndarray:
-    w = np.zeros(len(frequency))
-    for k, (lo, hi) in enumerate(zip(bands.lower, bands.upper)):
-        w[(frequency >= lo) & (frequency < hi)] = band_w[k]
+    k = iec61260.band_index(frequency, bands)
+    w = np.where(k >= 0, np.asarray(band_w, dtype=float)[k], 0.0)
     if f_range is not None:
         lo, hi = f_range
         w[(frequency < lo) | (frequency > hi)] = 0.0
