@@ -221,11 +221,10 @@ def joint_profile(data, ev, spec_b, effect, start: Outcome, scale, gv) -> Outcom
                      done[v].profile_cost)
         return done[v]
 
-    # a profile point's cost is its rail-loss profile's interpolated minimum: the best
-    # kernel's cost is up to ~3 cost units (s^2 ~ 1) above it after parabolic steps of
-    # 0.001 decades (the cost's curvature in log10 eta_r is ~3e6 on a 29-position test),
-    # a jitter as large as the 95 % threshold (3.84 s^2) that made the pad-length
-    # interval too narrow in the blind study
+    # a profile point's cost is its rail-loss profile's interpolated minimum: after
+    # parabolic steps of 0.001 decades the best kernel's cost still sat up to ~1 cost unit
+    # (s^2 ~ 1) above it in the blind study (the cost's curvature in log10 eta_r is ~3e6
+    # on a 29-position test), a jitter of the order of the 95 % threshold (3.84 s^2)
     def cost(u):
         return done[u].profile_cost if done[u].profile_cost is not None else done[u].cost
 
