@@ -383,6 +383,10 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
                 ea, eb = (library.get(top[i]["name"]), library.get(top[j]["name"]))
                 if ea.kind == eb.kind == "geometry":
                     continue
+                if "deviations" in ea.needs and "deviations" in eb.needs:
+                    # both set factors on single supports' stiffness (a voided sleeper is
+                    # one realisation of random supports): nested, not two mechanisms
+                    continue
                 ref = outcomes[top[i]["name"]]
                 try:
                     gv = dict(grid_values(ea, data, model), **grid_values(eb, data, model))
