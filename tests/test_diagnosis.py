@@ -82,24 +82,15 @@ def test_random_support_prior_and_deviations():
     th = {p.name: 1.0 for p in e.parameters}
     assert np.all(e.prior(th) == 0)
     th[rs.name("kb", -2)], th[rs.name("kp", 3)] = np.e, 0.5
-    first, last = rs.BLOCKS[1]
-    n = last - first + 1
-    th[rs.block_name("kp", rs.BLOCKS[1])] = 2.0
     pri = e.prior(th)
-    assert len(pri) == 2 * (len(rs.INDICES) + len(rs.BLOCKS)) == len(e.parameters)
-    # a block is the mean of its n supports: its prior SD is PRIOR_SD / sqrt(n)
+    assert len(pri) == 2 * len(rs.INDICES) == len(e.parameters)
     assert sorted(np.round(pri[pri != 0], 9)) == sorted(np.round(
-        [1 / rs.PRIOR_SD["kb"], np.log(0.5) / rs.PRIOR_SD["kp"],
-         np.log(2.0) * np.sqrt(n) / rs.PRIOR_SD["kp"]], 9))
+        [1 / rs.PRIOR_SD["kb"], np.log(0.5) / rs.PRIOR_SD["kp"]], 9))
     spec = e.apply(g.truth_spec().replace(deviations=(rf.SupportDeviation(index=40, kb=0.1),)),
                    th)
     devs = {d.index: d for d in spec.deviations}
-    blocks = {i for a, b in rs.BLOCKS for i in range(a, b + 1)}
-    assert set(devs) == set(rs.INDICES) | blocks | {40}
+    assert set(devs) == set(rs.INDICES) | {40}
     assert devs[-2].kb == pytest.approx(np.e) and devs[3].kp == 0.5 and devs[40].kb == 0.1
-    assert all(devs[i].kp == 2.0 and devs[i].kb == 1.0 for i in range(first, last + 1))
-    assert rs.deviation_of(rs.block_name("kb", rs.BLOCKS[1])) == (tuple(range(first, last + 1)),
-                                                                  "kb")
     assert rs.deviation_of(rs.name("kp", -2)) == ((-2,), "kp")
     sc = rs.scatter(th)
     assert sc["kb"] == pytest.approx(np.sqrt(1 / len(rs.INDICES)))

@@ -98,7 +98,7 @@ CASES = {
     "random_support": {"sd_kp": 0.15, "sd_kb": 0.3},
 }
 RANDOM_SPAN = range(-65, 66)  # supports scattered by random_support (the default 131)
-SCORED_SPAN = range(-3, 11)  # the supports random_support fits one by one
+SCORED_SPAN = range(-8, 25)  # the supports random_support fits
 
 
 def random_factors(seed: int, p=CASES["random_support"]) -> dict:
@@ -112,8 +112,8 @@ def random_factors(seed: int, p=CASES["random_support"]) -> dict:
 
 def truth(case: str, seed: int) -> dict:
     """The parameters of the case the diagnosis should recover (named as its effect names
-    them); for random_support the realised factors of the supports the effect fits one by
-    one (SCORED_SPAN; its blocks beyond are means of many supports and are not scored)."""
+    them); for random_support the realised factors of the supports the effect fits
+    (SCORED_SPAN)."""
     if case != "random_support":
         return dict(CASES[case])
     out = dict(CASES[case])
