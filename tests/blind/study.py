@@ -99,9 +99,12 @@ def table(rows: list[dict]) -> list[dict]:
 
 
 def latest(rows: list[dict]) -> list[dict]:
-    """One row per (case, seed, effects): the last one (a re-run replaces a row)."""
+    """One row per (case, seed, effects): the last one not marked ``superseded`` (a re-run
+    replaces a row; a row kept for the record of a replaced design is marked)."""
     last = {}
     for r in rows:
+        if r.get("superseded"):
+            continue
         last[(r["case"], r["seed"], r.get("effects") or "")] = r
     return list(last.values())
 
