@@ -44,6 +44,7 @@ from railfem.identify.forward import ForwardModel, Geometry, slow_names
 from railfem.measurement import DecayRateMeasurement, HammerMeasurement
 from railfem.params import ParameterSpace
 from railfem.spec import TrackSpec, preset, spec_to_dict
+from railfem.standards import iec61260
 
 log = logging.getLogger(__name__)
 
@@ -542,16 +543,17 @@ def band_rms(target: fdata.Target, table: dict) -> dict:
     """Per quantity and sensor, the RMS residual (dB) in each one-third-octave band."""
     out = {}
     centres = target.bands.nominal
+    member = iec61260.band_index(target.frequency, target.bands)
     for q, v in table.items():
         rows = {}
         for o, sensor in enumerate(target.outputs):
             vals = []
-            for k, (a, b) in enumerate(zip(target.bands.lower, target.bands.upper)):
+            for k in range(len(target.bands.nominal)):
                 if q == "tdr":
                     x = v[k, o]
                     vals.append(None if not np.isfinite(x) else float(abs(x)))
                     continue
-                m = (target.frequency >= a) & (target.frequency < b)
+                m = member == k
                 sel = v[m, o].ravel()
                 sel = sel[np.isfinite(sel)]
                 vals.append(float(np.sqrt(np.mean(sel ** 2))) if sel.size else None)

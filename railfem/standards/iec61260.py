@@ -220,8 +220,9 @@ def band_average(
     power = np.abs(values) ** 2
     out = np.empty((len(bands),) + values.shape[1:], dtype=float)
     empty = []
-    for k, (lo, hi) in enumerate(zip(bands.lower, bands.upper)):
-        inside = (frequency >= lo) & (frequency < hi)
+    member = band_index(frequency, bands)
+    for k in range(len(bands)):
+        inside = member == k
         if not inside.any():
             out[k] = np.nan
             empty.append(float(bands.nominal[k]))
