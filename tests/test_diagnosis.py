@@ -118,6 +118,43 @@ def test_random_support_closed_form_jacobian_matches_finite_differences():
         assert np.linalg.norm(J[:, i] - ref) < 1e-4 * np.linalg.norm(ref), i
 
 
+def test_random_support_unfitted_supports_and_their_jacobian():
+    """random_support declares every support of the model track outside its window, with
+    the prior's SD; the unfitted Jacobian's column for one of them (closed-form tangent) is
+    SD times the central difference of the residual with that support's factor set in the
+    base spec (the plain receptance path), and it has no prior rows."""
+    from railfem.diagnosis.effects import random_support as rs
+    from railfem.diagnosis.problem import Problem
+
+    e = effects.get("random_support")
+    spec = g.truth_spec()
+    half = (spec.n_supports - 1) // 2
+    sd = e.unfitted(spec)
+    assert {i for i, _ in sd} == set(range(-half, half + 1)) - set(rs.INDICES)
+    assert sd[(30, "kb")] == rs.PRIOR_SD["kb"] and sd[(-9, "kp")] == rs.PRIOR_SD["kp"]
+
+    data = prepare(g.dataset("random_support", 0, f=SMALL_F))
+    scale = {q: 0.4 for q in ("point", "phase", "transfer", "tdr")}
+    x = np.concatenate([np.log10([400e6, 0.2, 60e6, 1.0]),
+                        0.1 * np.random.default_rng(1).standard_normal(len(e.parameters))])
+    N = Problem(data=data, evaluator=Evaluator(), spec=spec, effects=(e,),
+                scale=scale).unfitted_jacobian(x)
+    assert N.shape[1] == len(sd)
+    n_prior = len(e.parameters)
+    assert np.all(N[-n_prior:] == 0)
+    for key in ((30, "kb"), (-12, "kp"), (45, "kp")):
+        col = sorted(sd).index(key)
+        res = []
+        for h in (-1e-5, 1e-5):
+            dev = rf.SupportDeviation(index=key[0], **{key[1]: float(np.exp(h))})
+            pb = Problem(data=data, evaluator=Evaluator(), spec=spec.replace(
+                deviations=(dev,)), effects=(e,), scale=scale)
+            res.append(pb.residual(x))
+        ref = sd[key] * (res[1] - res[0]) / 2e-5
+        assert np.linalg.norm(ref) > 0
+        assert np.linalg.norm(N[:, col] - ref) < 1e-3 * np.linalg.norm(ref), key
+
+
 def test_joint_rail_loss_interval_when_the_best_is_the_start():
     """profile_eta_r keeps its kernels on a lattice of log10(eta_r) rounded to 1e-6; when
     the best rail loss is the (unrounded) start value, the finite-difference column of the

@@ -10,6 +10,7 @@ so every model is scored on the same footing; random effects add their prior row
 """
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, field
 
@@ -18,7 +19,10 @@ import numpy as np
 from railfem.identify import data as fdata
 from railfem.identify.fit import FIT_BOUNDS
 from railfem.params import Parameter
+from railfem.spec import SupportDeviation
 from railfem.standards import iec61260
+
+log = logging.getLogger(__name__)
 
 BASE = ("kp", "eta_p", "kb", "eta_b")
 MIN_SCALE = 0.1  # dB
@@ -178,6 +182,41 @@ class Problem:
             else:
                 J[:, i] = (self.residual(xi) - r0) / step
         return J
+
+    def unfitted_jacobian(self, x, h: float = 1e-6) -> np.ndarray | None:
+        """N = d residual / d z times SD, one column per unfitted support factor of the
+        effects (Effect.unfitted; z its ln factor, left at 0 in the fit), from the
+        evaluator's closed-form tangents; None when no effect has any, or (logged) when
+        the evaluator has no tangents for the spec (their scatter is then left out)."""
+        th = self.thetas(x)
+        sd = {}
+        for e in self.effects:
+            if e.unfitted is not None:
+                sd.update(e.unfitted(self.base_spec(x)))
+        if not sd:
+            return None
+        ids = sorted({i for i, _ in sd})
+        a0, tan = {}, {}
+        for r in self.data.records:
+            spec, rec, shift = self._where(x, th, r)
+            have = {d.index for d in spec.deviations}
+            extra = tuple(SupportDeviation(index=i) for i in ids if i not in have)
+            got = self.evaluator.tangents(spec.replace(deviations=spec.deviations + extra),
+                                          rec, shift)
+            if got is None:
+                log.warning("diagnosis: no closed-form tangents for %s: the scatter of the "
+                            "%d unfitted support factors is left out of the intervals",
+                            r.name, len(sd))
+                return None
+            a0[r.name], tan[r.name] = got
+        pred0 = {r.name: self._measured(a0[r.name], th, r) for r in self.data.records}
+        r0 = self.residual(x, prediction=pred0)
+        N = np.empty((len(r0), len(sd)))
+        for c, (key, s) in enumerate(sorted(sd.items())):
+            pred = {r.name: self._measured(a0[r.name] + h * tan[r.name][key], th, r)
+                    for r in self.data.records}
+            N[:, c] = s * (self.residual(x, prediction=pred) - r0) / h
+        return N
 
     @property
     def analytic(self) -> bool:

@@ -241,7 +241,7 @@ def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
     x, c, J = results[best]
     r = pb.residual(x)
     clusters = pb.clusters()
-    analysis = uncertainty.analyse(pb.box, x, J, r, clusters=clusters)
+    analysis = _analyse(pb, pb.box, x, J, r)
     s2 = analysis["residual_variance"]
     for k, prof in profiles.items():
         if not prof["integer"] and len(prof["values"]) > 1:
@@ -496,9 +496,19 @@ def _joint_uncertainty(best: Outcome, done: dict) -> None:
     J = np.column_stack([J, col])
     box = Box(list(pb.box.parameters) + [Parameter(name="eta_r", unit="-", log=True,
                                                    lower=1e-4, upper=0.5)])
-    analysis = uncertainty.analyse(box, np.append(best.x, le), J, r0, clusters=pb.clusters())
+    analysis = _analyse(pb, box, np.append(best.x, le), J, r0)
     best.analysis = dict(analysis, parameters=analysis["parameters"][:-1],
                          eta_r=analysis["parameters"][-1])
+
+
+def _analyse(problem: Problem, box, v, J, r) -> dict:
+    """uncertainty.analyse of ``problem`` at vector ``v`` (its x, possibly extended by
+    columns of J beyond the problem's box): noise clustered as the data share it, and the
+    scatter of the effects' unfitted support factors (Problem.unfitted_jacobian)."""
+    N = problem.unfitted_jacobian(v[:len(problem.box.parameters)])
+    out = uncertainty.analyse(box, v, J, r, clusters=problem.clusters(), nuisance=N)
+    out["unfitted_terms"] = 0 if N is None else int(N.shape[1])
+    return out
 
 
 def _jacobian(problem: Problem, x, h: float = 1e-6) -> np.ndarray:

@@ -6,7 +6,9 @@ parameter vector: log10 of stiffnesses, masses and loss factors, metres for a le
     s^2 = |r|^2 / (N - p),   C = s^2 (J^T J)^-1,   rho_ij = C_ij / sqrt(C_ii C_jj)
 
 (or, where entries share noise, the larger of C_ii and the cluster-robust sandwich
-variance, robust_covariance) and the 95 % interval of x_i is x_i +- t_(0.975, N-p)
+variance, robust_covariance; where the residual also carries independent random terms the
+model leaves out, r = ... + N z with z of unit variance, C gains G G^T with
+G = (J^T J)^-1 J^T N, nuisance_covariance) and the 95 % interval of x_i is x_i +- t_(0.975, N-p)
 sqrt(C_ii), mapped back to SI (a multiplicative interval for log-scale parameters). J^T J
 is inverted through the SVD of J with singular values below 1e-10 of the largest dropped
 (their directions carry no information; the affected parameters are reported not
@@ -72,6 +74,14 @@ def robust_covariance(J: np.ndarray, r: np.ndarray, clusters: np.ndarray):
     return Ainv @ M @ Ainv, G
 
 
+def nuisance_covariance(J: np.ndarray, N: np.ndarray) -> np.ndarray:
+    """G G^T, G = (J^T J)^-1 J^T N: the covariance the least-squares estimate takes on from
+    random terms N z in the residual (z independent, unit variance; N = dr/dz times their
+    standard deviations) that the model does not fit (linearised)."""
+    G = _normal_inverse(J)[0] @ (J.T @ N)
+    return G @ G.T
+
+
 def correlation(C: np.ndarray) -> np.ndarray:
     d = np.sqrt(np.clip(np.diag(C), 0, None))
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -82,13 +92,18 @@ def correlation(C: np.ndarray) -> np.ndarray:
 
 
 def analyse(space, x: np.ndarray, J: np.ndarray, r: np.ndarray, profiles=None,
-            clusters=None) -> dict:
+            clusters=None, nuisance=None) -> dict:
     """Per-parameter estimates, 95 % intervals and identifiability, the correlation matrix
     and the singular values; ``profiles``: {name: profile dict (railfem.identify.fit)};
     ``clusters``: a label per residual entry (robust_covariance): each parameter's variance
     is then the larger of the model-based and the cluster-robust one (the model-based one
-    assumes independent entries of equal variance; the robust one holds without)."""
+    assumes independent entries of equal variance; the robust one holds without);
+    ``nuisance``: N (entries x terms), unfitted random terms (nuisance_covariance), whose
+    covariance is added to the model-based one."""
     C, C_diag, s2, dof, sv, Vt = covariance(J, r)
+    if nuisance is not None and np.size(nuisance):
+        extra = nuisance_covariance(J, np.asarray(nuisance, dtype=float))
+        C, C_diag = C + extra, C_diag + np.diag(extra)
     if clusters is not None:
         C_rob, _ = robust_covariance(J, r, clusters)
         C_diag = np.maximum(C_diag, np.diag(C_rob))

@@ -31,6 +31,11 @@ effects, e.g. the stiffness of each support of a randomly inhomogeneous track).
 ``deviation_of(name) -> (support indices, 'kp' | 'kb')`` says that a parameter is the factor
 on those supports' stiffness (log scale; one support, or a block sharing one factor): the
 refit then differentiates it in closed form.
+``unfitted(spec) -> {(support index, 'kp' | 'kb'): SD of ln factor}`` (optional) names the
+part of a random effect's realisation the fit leaves at the mean (the supports outside
+its window) and its scatter: it does not enter the fit, but the uncertainty of the fitted
+parameters includes what that scatter can do to them (railfem.identify.uncertainty,
+``nuisance``).
 ``screened=False`` leaves an effect out of the default search (it must be named): for
 costly effects with tens of parameters.
 """
@@ -90,6 +95,7 @@ class Effect:
     prior: Callable | None = None
     screened: bool = True  # False: left out of the default screen; named on request
     deviation_of: Callable | None = None  # parameter name -> ((support indices), 'kp' | 'kb')
+    unfitted: Callable | None = None  # spec -> {(support index, 'kp' | 'kb'): SD of ln}
     grid: dict = field(default_factory=dict)
     needs: tuple[str, ...] = ()
     quantities: tuple[str, ...] = ("point", "phase", "transfer", "tdr")
