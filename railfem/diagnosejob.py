@@ -197,7 +197,8 @@ def summary(d) -> dict:
                          "residual_rms_db": {"fit": d.residual_after.rms(part="fit"),
                                              "held": d.residual_after.rms(part="held")},
                          "structure_test": d.structure_after,
-                         "aicc": c.aicc, "bic": c.bic, "k": c.k}
+                         "aicc": c.aicc, "bic": c.bic, "k": c.k,
+                         "unfitted_terms": c.analysis.get("unfitted_terms", 0)}
         out["error_after"] = error_table(d.residual_after, bands)
     return out
 
@@ -271,6 +272,21 @@ def markdown(s: dict, figs: list[str], title: str) -> str:
                      + f" | {p.get('identifiable', '-')} |")
         L += ["", "The joint interval holds all the effect's parameters at once with 95 % "
               "confidence (Bonferroni over them); the 95 % interval is each one's own."]
+        sup = [p for p in c["parameters"] if "support_value" in p]
+        if sup:
+            L += ["", "The supports' stiffness (factor x fitted mean; its intervals from the "
+                  "variance of the product, tighter than the factor's: a shift of the mean "
+                  "moves the factors the other way):", "",
+                  "| parameter | stiffness | 95 % interval | joint 95 % interval |",
+                  "|---|---|---|---|"]
+            for p in sup:
+                ci, cj = p["support_ci95"], p["support_ci95_joint"]
+                L.append(f"| {p['name']} | {_fmt(p['support_value'], 'N/m')} | "
+                         f"[{_fmt(ci[0])}, {_fmt(ci[1])}] | [{_fmt(cj[0])}, {_fmt(cj[1])}] |")
+        if c.get("unfitted_terms"):
+            L += ["", f"The intervals include what the scatter of {c['unfitted_terms']} "
+                  "unfitted support factors (the effect's supports outside its window, "
+                  "at the prior's SD; held at the mean in the fit) can do to the estimates."]
         h = c["held_out"]
         L += ["", f"Held-out error (mean squared scaled residual) {h['mse_ref']:.3g} -> "
               f"{h['mse']:.3g} ({100 * h['reduction']:.0f} % lower, paired t = {h['t']:.2f}, "

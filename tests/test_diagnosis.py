@@ -425,12 +425,21 @@ def test_small_blind_random_support():
     assert d.candidates[0]["name"] == "random_support", d.statement
     assert d.chosen is not None and d.chosen.name == "random_support", d.statement
     assert d.chosen_row["final_held_out"]["reduction"] >= 0.5
-    ps = {p["name"]: p["value"] for p in d.chosen.parameters()}
+    # the 98 supports of the 131 outside the window enter the intervals (kp and kb each)
+    assert d.chosen.analysis["unfitted_terms"] == 2 * (131 - 33)
+    params = d.chosen.parameters()
+    ps = {p["name"]: p["value"] for p in params}
+    sup = {p["name"]: p for p in params if "support_value" in p}
     truth = g.truth(case, seed)
     for i in (0, 1, 2):
         for w in ("kp", "kb"):
             got = ps[f"random_support.{w}_{i}"] * ps[w] / g.TRUTH[w]
             assert abs(got / truth[f"{w}_{i}"] - 1) < 0.1, (w, i, got, truth[f"{w}_{i}"])
+            # the support's stiffness and its own interval (factor x mean)
+            p = sup[f"random_support.{w}_{i}"]
+            assert p["support_value"] / g.TRUTH[w] == pytest.approx(got)
+            lo, hi = (v / g.TRUTH[w] for v in p["support_ci95_joint"])
+            assert lo <= truth[f"{w}_{i}"] <= hi, (w, i, lo, hi)
 
 
 # ------------------------------------------------------------------ errors and the CLI

@@ -4,6 +4,7 @@ cluster-robust one where they share noise within clusters."""
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 from railfem.identify import uncertainty as u
 from railfem.params import Parameter
@@ -104,3 +105,32 @@ def test_nuisance_covariance_covers_unfitted_random_terms():
     assert np.mean(sd_without, axis=0)[-1] < 0.5 * sd[-1]
     assert np.all(np.mean(cover_with, axis=0) > 0.94)
     assert np.mean(cover_without, axis=0)[-1] < 0.7
+
+
+def test_combination_std_of_a_sum_of_anticorrelated_parameters():
+    """Two columns that nearly coincide (a mean and a factor on it): each estimate scatters
+    widely, their sum hardly; combination_std gives the sum's Monte Carlo SD (model-based
+    and, with clusters, the larger of it and the robust one)."""
+    rng = np.random.default_rng(5)
+    t = np.linspace(0, 1, 300)
+    J = np.column_stack([np.ones_like(t), np.ones_like(t) + 0.05 * t])
+    Space = SimpleNamespace(
+        parameters=tuple(Parameter(name=n, unit="-", log=False, lower=-1e3, upper=1e3)
+                         for n in "ab"),
+        names=("a", "b"), lower=np.full(2, -1e3), upper=np.full(2, 1e3))
+    cl = np.repeat(np.arange(30), 10)
+    sums, sds, sds_cl, sd_a = [], [], [], []
+    for _ in range(1000):
+        e = rng.standard_normal(len(t))
+        x, *_ = np.linalg.lstsq(J, e, rcond=None)
+        an = u.analyse(Space, x, J, J @ x - e)
+        sums.append(x.sum())
+        sds.append(u.combination_std(an, [1.0, 1.0]))
+        sds_cl.append(u.combination_std(u.analyse(Space, x, J, J @ x - e, clusters=cl),
+                                        [1.0, 1.0]))
+        sd_a.append(an["parameters"][0]["std_vector"])
+    assert np.mean(sds) == pytest.approx(np.std(sums), rel=0.05)
+    # the larger of two estimates of the same SD (the robust one from 30 clusters)
+    assert np.all(np.array(sds_cl) >= np.array(sds))
+    assert np.mean(sds_cl) == pytest.approx(np.std(sums), rel=0.15)
+    assert np.mean(sd_a) > 10 * np.std(sums)

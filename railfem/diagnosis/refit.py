@@ -74,7 +74,12 @@ class Outcome:
         """Estimates with 95 % intervals: base, effects, grid (profiled) values. The effect
         parameters also get ``ci95_joint``: simultaneous 95 % intervals over the effects'
         k parameters (Bonferroni: each at 1 - 0.05/k), the statement that all of them lie
-        inside at once; ``ci95`` is each one's own (marginal) interval."""
+        inside at once; ``ci95`` is each one's own (marginal) interval. A factor on
+        supports' stiffness (Effect.deviation_of) also gets the stiffness it gives them,
+        ``support_value`` = factor x fitted mean (N/m), with ``support_ci95`` and
+        ``support_ci95_joint`` from the variance of the sum of the two log10 values: a
+        shift of the fitted mean moves the factors the other way, so the supports'
+        stiffness is known better than the factors."""
         out = [dict(p, group="base" if "." not in p["name"] else "effect")
                for p in self.analysis["parameters"]]
         for (e, n), prof in self.grid_profiles.items():
@@ -108,6 +113,27 @@ class Outcome:
                                    uncertainty.decode(q, v + t * sd)]
             else:
                 p["ci95_joint"] = list(p["ci95"])
+        self._supports(eff, float(self.analysis["t_quantile"]), t)
+
+    def _supports(self, eff: list[dict], t: float, t_joint: float) -> None:
+        names = list(self.problem.box.names)
+        by_name = {e.name: e for e in self.problem.effects}
+        n_vec = len(self.analysis["covariance_vector"])
+        for p in eff:
+            e, n = p["name"].split(".", 1)
+            dev = by_name[e].deviation_of if e in by_name else None
+            if dev is None or p["name"] not in names:
+                continue
+            which = dev(n)[1]
+            i, j = names.index(p["name"]), names.index(which)
+            a = np.zeros(n_vec)
+            a[[i, j]] = 1.0
+            sd = (uncertainty.combination_std(self.analysis, a)
+                  if np.isfinite(p.get("std_vector", np.inf)) else float("inf"))
+            v = float(self.x[i] + self.x[j])
+            p["support_value"] = 10 ** v
+            p["support_ci95"] = [10 ** (v - t * sd), 10 ** (v + t * sd)]
+            p["support_ci95_joint"] = [10 ** (v - t_joint * sd), 10 ** (v + t_joint * sd)]
 
     def theta(self) -> dict:
         return self.problem.thetas(self.x)

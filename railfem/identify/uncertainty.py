@@ -104,6 +104,7 @@ def analyse(space, x: np.ndarray, J: np.ndarray, r: np.ndarray, profiles=None,
     if nuisance is not None and np.size(nuisance):
         extra = nuisance_covariance(J, np.asarray(nuisance, dtype=float))
         C, C_diag = C + extra, C_diag + np.diag(extra)
+    C_rob = None
     if clusters is not None:
         C_rob, _ = robust_covariance(J, r, clusters)
         C_diag = np.maximum(C_diag, np.diag(C_rob))
@@ -150,7 +151,20 @@ def analyse(space, x: np.ndarray, J: np.ndarray, r: np.ndarray, profiles=None,
         params.append(entry)
     return {"parameters": params, "correlation": rho.tolist(), "names": list(space.names),
             "singular_values": sv.tolist(), "residual_variance": s2, "dof": dof,
-            "t_quantile": t, "covariance_vector": np.where(np.isfinite(C), C, np.nan).tolist()}
+            "t_quantile": t, "covariance_vector": np.where(np.isfinite(C), C, np.nan).tolist(),
+            "covariance_robust_vector": None if C_rob is None else C_rob.tolist()}
+
+
+def combination_std(analysis: dict, a) -> float:
+    """SD of the linear combination a . x of the vector (e.g. the log10 of a product of
+    two parameters: a = e_i + e_j), from the analysis' covariance: the larger of the
+    model-based and the cluster-robust one, as for the parameters themselves."""
+    a = np.asarray(a, dtype=float)
+    v = [float(a @ np.asarray(C, dtype=float) @ a)
+         for C in (analysis["covariance_vector"], analysis.get("covariance_robust_vector"))
+         if C is not None]
+    v = max(v)
+    return float(np.sqrt(v)) if np.isfinite(v) and v >= 0 else float("inf")
 
 
 def decode(p, x: float) -> float:
