@@ -216,11 +216,12 @@ def _grid_combos(effects):
 
 def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
           screen_keep: int = 2, refine: bool = True, bounds=None, x_start=None,
-          refine_steps: int = REFINE_STEPS) -> Outcome:
+          refine_steps: int = REFINE_STEPS, unfitted: bool = True) -> Outcome:
     """Fit base + ``effects`` (see the module docstring) starting from the base vector
     x_base (BASE parameters, vector units) with the rail loss factor of ``spec``.
     grid_values: {(effect, name): values} overriding the effects' grids (e.g. only the
-    sensors a record has)."""
+    sensors a record has). unfitted=False leaves the effects' unfitted scatter out of the
+    analysis (a profile point whose analysis is redone at the best one)."""
     effects = tuple(effects)
     keys, values = _grid_combos(effects)
     values = [tuple((grid_values or {}).get(k, v)) for k, v in zip(keys, values)]
@@ -267,7 +268,7 @@ def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
     x, c, J = results[best]
     r = pb.residual(x)
     clusters = pb.clusters()
-    analysis = _analyse(pb, pb.box, x, J, r)
+    analysis = _analyse(pb, pb.box, x, J, r, clusters, unfitted)
     s2 = analysis["residual_variance"]
     for k, prof in profiles.items():
         if not prof["integer"] and len(prof["values"]) > 1:
@@ -453,11 +454,13 @@ def profile_eta_r(data, evaluator, spec, effects, outcome: Outcome, scale, *,
             return done[le]
         near = done[min(done, key=lambda v: abs(v - le))]
         s_ = spec.replace(eta_r=10 ** le)
+        # the unfitted scatter enters the best point's analysis (_joint_uncertainty)
         o = refit(data, evaluator, s_, effects, near.x[:len(BASE)], scale, grid_values=grid,
-                  refine=False, bounds=bounds, x_start=near.x)
+                  refine=False, bounds=bounds, x_start=near.x, unfitted=False)
         if len(o.x) - len(BASE) <= MAX_GRID_START:  # multi-start as well (not for
             fresh = refit(data, evaluator, s_, effects, near.x[:len(BASE)], scale,  # random
-                          grid_values=grid, refine=False, bounds=bounds)  # effects)
+                          grid_values=grid, refine=False, bounds=bounds,  # effects)
+                          unfitted=False)
             o = fresh if fresh.cost < o.cost else o
         o.grid_profiles = outcome.grid_profiles
         done[le] = o
@@ -522,17 +525,18 @@ def _joint_uncertainty(best: Outcome, done: dict) -> None:
     J = np.column_stack([J, col])
     box = Box(list(pb.box.parameters) + [Parameter(name="eta_r", unit="-", log=True,
                                                    lower=1e-4, upper=0.5)])
-    analysis = _analyse(pb, box, np.append(best.x, le), J, r0)
+    analysis = _analyse(pb, box, np.append(best.x, le), J, r0, pb.clusters())
     best.analysis = dict(analysis, parameters=analysis["parameters"][:-1],
                          eta_r=analysis["parameters"][-1])
 
 
-def _analyse(problem: Problem, box, v, J, r) -> dict:
+def _analyse(problem: Problem, box, v, J, r, clusters, unfitted: bool = True) -> dict:
     """uncertainty.analyse of ``problem`` at vector ``v`` (its x, possibly extended by
-    columns of J beyond the problem's box): noise clustered as the data share it, and the
-    scatter of the effects' unfitted support factors (Problem.unfitted_jacobian)."""
-    N = problem.unfitted_jacobian(v[:len(problem.box.parameters)])
-    out = uncertainty.analyse(box, v, J, r, clusters=problem.clusters(), nuisance=N)
+    columns of J beyond the problem's box): noise ``clusters`` as the data share it, and
+    (``unfitted``) the scatter of the effects' unfitted support factors
+    (Problem.unfitted_jacobian)."""
+    N = problem.unfitted_jacobian(v[:len(problem.box.parameters)]) if unfitted else None
+    out = uncertainty.analyse(box, v, J, r, clusters=clusters, nuisance=N)
     out["unfitted_terms"] = 0 if N is None else int(N.shape[1])
     return out
 
