@@ -423,8 +423,11 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
         if profile_final:
             grid_fix = {k: (v,) for k, v in chosen.grid.items()}
             spec_c = spec_b.replace(eta_r=chosen.eta_r)
+            # the profile below (at least 3 kernels) redoes the best point's analysis
+            # with the unfitted scatter (_joint_uncertainty): the start's is not kept
             start = refit(data, ev, spec_c, chosen.effects, x_base, scale,
-                          grid_values=grid_fix, refine=False, x_start=chosen.x)
+                          grid_values=grid_fix, refine=False, x_start=chosen.x,
+                          unfitted=False)
             start.grid_profiles = chosen.grid_profiles
             chosen = profile_eta_r(data, ev, spec_b, chosen.effects, start, scale,
                                    max_steps=steps)

@@ -109,8 +109,12 @@ class Problem:
     def predict(self, x) -> dict:
         """{record name: Prediction} as the data would show it."""
         th = self.thetas(x)
-        return {r.name: self._measured(self.evaluator.receptance(*self._where(x, th, r)),
-                                       th, r) for r in self.data.records}
+        return self._as_measured({r.name: self.evaluator.receptance(*self._where(x, th, r))
+                                  for r in self.data.records}, th)
+
+    def _as_measured(self, a: dict, th) -> dict:
+        """{record name: Prediction} from {record name: receptance} (measurement effects)."""
+        return {r.name: self._measured(a[r.name], th, r) for r in self.data.records}
 
     def _where(self, x, th, r):
         """(spec, record, shift) the evaluator is asked for: base, spec and geometry
@@ -163,8 +167,7 @@ class Problem:
         a0 = ({k: v[0] for k, v in got.items()} if got else
               {r.name: self.evaluator.receptance(*self._where(x, th, r))
                for r in self.data.records})
-        pred0 = {r.name: self._measured(a0[r.name], th, r) for r in self.data.records}
-        r0 = self.residual(x, prediction=pred0)
+        r0 = self.residual(x, prediction=self._as_measured(a0, th))
         J = np.empty((len(r0), len(x)))
         for i in range(len(x)):
             step = h * max(1.0, abs(x[i]))
@@ -174,10 +177,8 @@ class Problem:
             if i in tp:  # along the closed-form tangent (log10 -> ln: a factor ln 10)
                 thi = self.thetas(xi)
                 ids, which = tp[i]
-                pred = {r.name: self._measured(a0[r.name] + step * math.log(10)
-                                               * sum(got[r.name][1][(j, which)] for j in ids),
-                                               thi, r)
-                        for r in self.data.records}
+                pred = self._as_measured({n: a + step * math.log(10) * sum(
+                    got[n][1][(j, which)] for j in ids) for n, a in a0.items()}, thi)
                 J[:, i] = (self.residual(xi, prediction=pred) - r0) / step
             else:
                 J[:, i] = (self.residual(xi) - r0) / step
@@ -209,12 +210,10 @@ class Problem:
                             r.name, len(sd))
                 return None
             a0[r.name], tan[r.name] = got
-        pred0 = {r.name: self._measured(a0[r.name], th, r) for r in self.data.records}
-        r0 = self.residual(x, prediction=pred0)
+        r0 = self.residual(x, prediction=self._as_measured(a0, th))
         N = np.empty((len(r0), len(sd)))
         for c, (key, s) in enumerate(sorted(sd.items())):
-            pred = {r.name: self._measured(a0[r.name] + h * tan[r.name][key], th, r)
-                    for r in self.data.records}
+            pred = self._as_measured({n: a + h * tan[n][key] for n, a in a0.items()}, th)
             N[:, c] = s * (self.residual(x, prediction=pred) - r0) / h
         return N
 
