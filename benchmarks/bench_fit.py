@@ -39,11 +39,11 @@ def main(argv=None):
 
     import railfem as rf
     from railfem import models
-    from railfem.fitjob import run_fit
+    from railfem.jobs.fit import run_fit
     from railfem.identify import fit
     from railfem.identify.forward import SpectralEngine, Geometry
     from railfem.io import read_measurement
-    from railfem.supports import dynamic_stiffness
+    from railfem.track.supports import dynamic_stiffness
 
     logging.basicConfig(level=logging.WARNING)
     meas = read_measurement(SHARED / "datasets/refsim_site")

@@ -9,7 +9,7 @@ head (patch average) and at the rail-foot sensor, at the 29 EN 15461 hammer posi
 0.6 m sleeper spacing (railfem.standards.en15461.hammer_positions(0.6), 0 ... 39.6 m):
 
 * DOFs, total and of the symmetric family (a vertical load on the symmetric section excites
-  only that family; the antisymmetric one is skipped by railfem.mobility);
+  only that family; the antisymmetric one is skipped by railfem.rail.mobility);
 * (a) dense: all waves of the family at every frequency (waves.waves_at(method="dense")),
   then the residue sum at the 58 outputs;
 * (b) shift-invert: the 40 waves of smallest |k| (ARPACK on the sparse factorisation) plus
@@ -18,7 +18,7 @@ head (patch average) and at the rail-foot sensor, at the 29 EN 15461 hammer posi
 * the ratio (a)/(b) per frequency from times measured in the same run, and the largest
   relative difference of (b) from (a) over the 58 outputs.
 
-The steps are those of railfem.mobility.free_receptance, timed one by one. The BLAS thread
+The steps are those of railfem.rail.mobility.free_receptance, timed one by one. The BLAS thread
 count is set before numpy is imported (--threads, default 1; see bench_waveguide.py). The
 table is printed and written to benchmarks/results_mobility.txt (--out).
 """
@@ -55,7 +55,10 @@ def main(argv=None):
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     import numpy as np
 
-    from railfem import meshing, mobility, waveguide, waves
+    from railfem.rail import meshing
+    from railfem.rail import mobility
+    from railfem.rail import waveguide
+    from railfem.rail import waves
     from railfem.materials import Material
     from railfem.standards.en15461 import hammer_positions
 

@@ -27,11 +27,13 @@ def main(argv=None):
     limit_threads(args.threads)
     import numpy as np
 
-    from railfem import contact, roughness, wheels
+    from railfem.wheelrail import contact
+    from railfem.wheelrail import roughness
+    from railfem.wheelrail import wheels
     from railfem.simulate import passby as P, signals
     from railfem.simulate.train import default_train
     from railfem.standards import iec61260
-    from railfem.supports import preset
+    from railfem.track.supports import preset
 
     f = iec61260.ninth_octave_grid(100, 5000)
     train = default_train()

@@ -37,8 +37,10 @@ def main(argv=None):
     import numpy as np
 
     import railfem as rf
-    from railfem import beams, models, supports
-    from railfem.kernelcache import KernelStore
+    from railfem import models
+    from railfem.track import beams
+    from railfem.track import supports
+    from railfem.track.kernelcache import KernelStore
     from railfem.standards import iec61260
     from tests.reference import track_4bb7c79 as ref
 

@@ -79,7 +79,9 @@ def main(argv=None):
     import numpy as np
     import scipy.linalg as sl
 
-    from railfem import meshing, waveguide, waves
+    from railfem.rail import meshing
+    from railfem.rail import waveguide
+    from railfem.rail import waves
 
     def full_linearisation(guide, omega):
         """All 2N roots k of k^2 K2 + i k K1 + K0 - w^2 M (unreduced), companion form."""
@@ -199,7 +201,7 @@ def old_waves(ops, omega, lam, x):
     """The old post-processing of (lambda, vector) pairs into positive-going waves."""
     import numpy as np
 
-    from railfem.waves import Waves
+    from railfem.rail.waves import Waves
 
     k = np.sqrt(lam.astype(complex))
     k = np.where(k.imag > 0, -k, k)
@@ -248,7 +250,7 @@ def whole_section(guide):
     import numpy as np
     import scipy.sparse as sp
 
-    from railfem.waveguide import Family
+    from railfem.rail.waveguide import Family
 
     comp = np.empty(guide.n_dofs, dtype=int)
     for c in range(3):
@@ -271,7 +273,9 @@ def clocks(fn, *a, repeat=1, **kw):
 def speed_table(args, emit):
     import numpy as np
 
-    from railfem import meshing, waveguide, waves
+    from railfem.rail import meshing
+    from railfem.rail import waveguide
+    from railfem.rail import waves
     from railfem.materials import Material
 
     emit(f"Table 1: k(omega) by shift-invert, old path vs new, seconds per frequency (mean "
@@ -313,7 +317,10 @@ def tail_table(args, emit):
 
     import numpy as np
 
-    from railfem import meshing, mobility, waveguide, waves
+    from railfem.rail import meshing
+    from railfem.rail import mobility
+    from railfem.rail import waveguide
+    from railfem.rail import waves
     from railfem.materials import Material
 
     emit("Table 2: frozen near-field tail (symmetric family, 40 retained waves, 50 Hz, "

@@ -14,7 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from railfem import meshing, waveguide, waves
+from railfem.rail import meshing
+from railfem.rail import waveguide
+from railfem.rail import waves
 from railfem.materials import Material
 from railfem.plotting import propagating_mask
 

@@ -6,7 +6,7 @@ Loads the shipped 60E1 mesh (h = 10 mm), assembles the waveguide (steel, rail lo
 0.01), loads the head with a unit vertical force spread over a 20 mm x 20 mm patch (20 mm
 across the head top, 20 mm along the rail) and computes the mobility (m/s/N) at 100 Hz on
 the head at x = 0 (point) and x = 1 m (transfer) by the residue sum over the waves
-(railfem.mobility). Writes OUT_DIR/free_mobility_100hz.csv (railfem.frfio layout; default
+(railfem.rail.mobility). Writes OUT_DIR/free_mobility_100hz.csv (railfem.io.frf_csv layout; default
 OUT_DIR: a new temporary folder) and prints the values. The last line is
 ``KEY free_mobility_point_100hz <|Y| in m/s/N>``; tests/test_examples.py checks it.
 """
@@ -16,8 +16,10 @@ from pathlib import Path
 
 import numpy as np
 
-from railfem import meshing, mobility, waveguide
-from railfem.frfio import write_frf_csv
+from railfem.rail import meshing
+from railfem.rail import mobility
+from railfem.rail import waveguide
+from railfem.io.frf_csv import write_frf_csv
 from railfem.materials import Material
 
 FREQUENCY_HZ = 100.0

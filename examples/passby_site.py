@@ -16,8 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
-from railfem import contact
-from railfem.passbyjob import run_passby
+from railfem.wheelrail import contact
+from railfem.jobs.passby import run_passby
 from railfem.io.recording import read_recording
 
 

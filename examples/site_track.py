@@ -13,9 +13,9 @@ from pathlib import Path
 
 import numpy as np
 
-from railfem.frfio import read_frf_csv
+from railfem.io.frf_csv import read_frf_csv
 from railfem.spec import preset
-from railfem.trackjob import JobSettings, run_track
+from railfem.jobs.track import JobSettings, run_track
 
 
 def main(out_dir: Path) -> dict:

@@ -2,7 +2,7 @@
 
 The main public names are available here (the model door of railfem.models, the track
 specification of railfem.spec, the parameter space of railfem.params and the FRF
-container); everything else lives in its module (``railfem.track``, ``railfem.beams``, ...).
+container); everything else lives in its module (``railfem.track.wfe``, ``railfem.track.beams``, ...).
 
 They are loaded on first use (PEP 562): ``import railfem`` itself imports neither numpy
 nor scipy, so a program (the ``railfem`` command among them) can still choose its BLAS
@@ -18,7 +18,7 @@ except PackageNotFoundError:  # running from a source tree that is not installed
 
 #: public name -> module that defines it
 _EXPORTS = {
-    "FRF": "frf", "Material": "materials", "SupportParameters": "supports",
+    "FRF": "frf", "Material": "materials", "SupportParameters": "track.supports",
     "Point": "models", "decay_rate": "models", "foot": "models", "frf": "models",
     "head": "models", "receptance": "models",
     "ParameterSpace": "params",

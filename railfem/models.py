@@ -7,8 +7,8 @@
 
 ``frf`` serves every model kind of railfem.spec.MODELS with any force and response
 positions (m along the rail) and any frequencies (Hz). The parameter-free part of the
-discrete and periodic models (free-rail Green's functions, railfem.track / railfem.beams)
-is cached by content (railfem.kernelcache): a second call that changes only the support
+discrete and periodic models (free-rail Green's functions, railfem.track.wfe / railfem.track.beams)
+is cached by content (railfem.track.kernelcache): a second call that changes only the support
 parameters costs the coupling solve alone. The continuous WFE model has its foundation
 inside the wave solve and is recomputed on every call.
 
@@ -36,8 +36,14 @@ from functools import lru_cache
 
 import numpy as np
 
-from . import beams, kernelcache, meshing, mobility, profiles, track, waveguide
-from .coupling import DiscreteKernel, PeriodicKernel, couple_discrete, couple_periodic
+from .track import beams
+from .track import kernelcache
+from .rail import meshing
+from .rail import mobility
+from .rail import profiles
+from .track import wfe as track
+from .rail import waveguide
+from .track.coupling import DiscreteKernel, PeriodicKernel, couple_discrete, couple_periodic
 from .frf import FRF
 from .spec import RailSpec, TrackSpec
 from .validators import warn_once
@@ -188,14 +194,14 @@ def _channel_key(rail: Rail, force: str, outputs) -> tuple:
 
 @lru_cache(maxsize=8)
 def beam_section(spec_rail: RailSpec) -> beams.BeamSection:
-    """Timoshenko vertical-bending section: A, I, kappa from the mesh (railfem.section) or
+    """Timoshenko vertical-bending section: A, I, kappa from the mesh (railfem.rail.section) or
     the nominal 60E1 catalogue values, with the rail's material (METHOD.md section 3)."""
     m = spec_rail.material()
     if spec_rail.beam_constants == "catalogue":
         nominal = beams.BeamSection.uic60(eta=m.loss_factor)
         return beams.BeamSection(E=m.E, G=m.G, area=nominal.area, I=nominal.I,
                                  kappa=nominal.kappa, rho=m.rho, eta=m.loss_factor)
-    from . import section
+    from .rail import section
 
     sc = section.section_constants(rail_mesh(spec_rail))
     return beams.BeamSection(E=m.E, G=m.G, area=sc.area, I=sc.I_y, kappa=sc.kappa_z,
@@ -244,7 +250,7 @@ def receptance(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE
     on the side of the head) at each force_x, response at each response_x (m) for each
     output in ``outputs`` ('head', 'foot', 'head_lateral'). The grid form behind ``frf``.
 
-    cache: kernel cache (railfem.kernelcache.resolve: None = the default folder, a folder,
+    cache: kernel cache (railfem.track.kernelcache.resolve: None = the default folder, a folder,
     False = memory only, or a KernelStore)."""
     if not isinstance(spec, TrackSpec):
         raise TypeError(f"spec must be a TrackSpec, got {type(spec).__name__}")
@@ -402,7 +408,7 @@ def _beam_discrete(spec, f, fx, rx, outputs, store, couple=True):
 
 
 def _wfe_periodic(spec, f, fx, rx, outputs, store, progress, force="head"):
-    from .supports import uniform_layout
+    from .track.supports import uniform_layout
 
     rail = _rail_of(spec)
     cell = uniform_layout(spec.support, spec.spacing, n=1, pad_length=spec.pad_length,

@@ -36,7 +36,7 @@ PARAMETERS = {
     "eta_b": ("-", True, (1e-3, 5.0)),
     "eta_r": ("-", True, (1e-4, 0.5)),
     "pad_length": ("m", False, (0.0, 0.4)),
-    # horizontal support (railfem.supports.SupportParameters, issue 15)
+    # horizontal support (railfem.track.supports.SupportParameters, issue 15)
     "kp_lat": ("N/m", True, (1e5, 1e10)),
     "eta_p_lat": ("-", True, (1e-3, 2.0)),
     "kp_long": ("N/m", True, (1e5, 1e10)),

@@ -1,7 +1,7 @@
 """The track specification: rail, supports, pad geometry and model kind in one frozen value.
 
 ``TrackSpec`` is what the model door (railfem.models) takes; presets are named specs
-(``preset('site')``, from the Table 1 sets of railfem.supports). A spec converts to and
+(``preset('site')``, from the Table 1 sets of railfem.track.supports). A spec converts to and
 from a plain dict (``spec_to_dict`` / ``spec_from_dict``) with SI numbers, which is what
 ``run.json`` records and what a TOML config file holds; there a number may also be written
 as a string with a unit (``kp = "600 MN/m"``, ``pad_length = "150 mm"``). Unknown keys and
@@ -19,15 +19,15 @@ from dataclasses import asdict, dataclass, field, fields, replace
 
 from . import validators as v
 from .materials import Material
-from .supports import HORIZONTAL_FIELDS, PRESETS, SupportLayout, SupportParameters
-from .supports import DIRECTIONS as SUPPORT_DIRECTIONS, preset as table1_preset
-from .supports import uniform_layout
+from .track.supports import HORIZONTAL_FIELDS, PRESETS, SupportLayout, SupportParameters
+from .track.supports import DIRECTIONS as SUPPORT_DIRECTIONS, preset as table1_preset
+from .track.supports import uniform_layout
 
 MODELS = ("wfe-discrete", "wfe-periodic", "wfe-continuous", "timoshenko-discrete",
           "timoshenko-continuous")
 BEAM_CONSTANTS = ("mesh", "catalogue")
 H_RANGE = (0.5e-3, 0.1)  # m: finer hangs the eigen-solves, coarser cannot carry the section
-FOOT_RULES = ("midpoint", "nodes")  # railfem.footprints.RULES
+FOOT_RULES = ("midpoint", "nodes")  # railfem.track.footprints.RULES
 # The converged default support footprint (railfem support-convergence, issue 8): a pad
 # of this length in these rows, 4 midpoint springs across the foot (Numerics).
 DEFAULT_PAD_LENGTH = 0.15  # m
@@ -44,7 +44,7 @@ class RailSpec:
     h: element size of the section mesh (m), 0.5 mm to 100 mm. mesh_file: a saved mesh
     (.npz, railfem mesh) used instead of profile and h. E (Pa), nu (-), rho (kg/m^3): steel.
     eta: rail loss factor (-), E* = E (1 + i eta). beam_constants: where the Timoshenko
-    models take A, I and kappa from: 'mesh' (railfem.section on this mesh) or 'catalogue'
+    models take A, I and kappa from: 'mesh' (railfem.rail.section on this mesh) or 'catalogue'
     (nominal EN 13674-1 60E1, beams.BeamSection.uic60).
     """
 
@@ -115,7 +115,7 @@ class Numerics:
     width, reading and loading the FE field through the P2 edge shape functions; converges
     to the consistent bed as n grows) or 'nodes' (point springs at foot nodes weighted by
     tributary width: the published configuration, which does not converge with the mesh;
-    railfem.footprints, docs/model.md). n_waves: waves per
+    railfem.track.footprints, docs/model.md). n_waves: waves per
     family kept by the shift-invert solver (-). tail: add the frozen near-field tail.
     n_theta: Floquet angles of the periodic model (-). load_length: length along the rail
     over which a force is spread (m). patch_width: width of the head load patch (m).
@@ -262,7 +262,7 @@ class TrackSpec:
 
 
 def preset(name: str, **changes) -> TrackSpec:
-    """The Table 1 track ``name`` (railfem.supports.PRESETS) as a spec, with ``changes``
+    """The Table 1 track ``name`` (railfem.track.supports.PRESETS) as a spec, with ``changes``
     applied as in TrackSpec.replace (e.g. model='wfe-periodic', kp=300e6).
 
     Discrete and periodic models get a pad of DEFAULT_PAD_LENGTH (0.15 m) in

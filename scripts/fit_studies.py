@@ -28,7 +28,7 @@ SIX = ("kp", "eta_p", "kb", "eta_b", "eta_r", "ms")
 
 
 def refsim(out: Path):
-    from railfem.fitjob import comparison_table, write_fit
+    from railfem.jobs.fit import comparison_table, write_fit
     from railfem.identify import fit
     from railfem.io import read_measurement
 
@@ -55,7 +55,7 @@ def refsim(out: Path):
 
 
 def practice(out: Path):
-    from railfem.fitjob import comparison_table, write_fit
+    from railfem.jobs.fit import comparison_table, write_fit
     from railfem.identify import fit
     from railfem.io import read_measurement
 
@@ -80,7 +80,7 @@ def practice(out: Path):
 
 
 def sbb(out: Path, model: str):
-    from railfem.fitjob import run_fit
+    from railfem.jobs.fit import run_fit
     from railfem.spec import preset
 
     t = time.perf_counter()

@@ -3,7 +3,7 @@
 * One BLAS/OpenMP thread per process: the dense eigensolvers oversubscribe a small, loaded
   machine and then run many times slower (see benchmarks/bench_waveguide.py). Subprocesses
   started by the tests (examples, import checks) inherit these variables.
-* Headless VTK: the EGL render window. railfem.rendering already selects it when there is
+* Headless VTK: the EGL render window. railfem.plotting.render already selects it when there is
   no DISPLAY; setting it here covers tests that import pyvista directly.
 
 ``setdefault``: a value given on the command line always wins.

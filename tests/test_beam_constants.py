@@ -10,9 +10,12 @@ at 3.15 kHz, +0.67 dB at 5 kHz.
 import numpy as np
 import pytest
 
-from railfem import beamconstants, beams, meshing, section
+from railfem.studies import beam_constants as beamconstants
+from railfem.track import beams
+from railfem.rail import meshing
+from railfem.rail import section
 from railfem.materials import Material
-from railfem.profiles import EN13674_60E1
+from railfem.rail.profiles import EN13674_60E1
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""Tests of railfem.beams against closed forms, numerical Fourier inversion and limits."""
+"""Tests of railfem.track.beams against closed forms, numerical Fourier inversion and limits."""
 import dataclasses
 import math
 
@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from scipy import integrate, optimize
 
-from railfem import beams as bm
-from railfem import supports as sp
+from railfem.track import beams as bm
+from railfem.track import supports as sp
 from railfem.materials import Material
 
 TWO_PI = 2 * np.pi

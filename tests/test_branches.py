@@ -1,8 +1,12 @@
-"""Dispersion branches followed by mode-shape continuity (railfem.branches)."""
+"""Dispersion branches followed by mode-shape continuity (railfem.rail.branches)."""
 import numpy as np
 import pytest
 
-from railfem import branches, meshing, section, waveguide, waves
+from railfem.rail import branches
+from railfem.rail import meshing
+from railfem.rail import section
+from railfem.rail import waveguide
+from railfem.rail import waves
 from railfem.materials import Material
 
 

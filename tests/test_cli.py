@@ -5,7 +5,11 @@ import json
 import numpy as np
 import pytest
 
-from railfem import cli, convergence, jobs, meshing, profiles
+from railfem import cli
+from railfem.studies import convergence
+from railfem.jobs import common as jobs
+from railfem.rail import meshing
+from railfem.rail import profiles
 
 
 def read_csv(path):
@@ -68,7 +72,7 @@ def test_dispersion_command_omega_of_k(tmp_path):
 
 
 def test_wave_shapes_are_full_per_node_shapes():
-    from railfem import waveguide
+    from railfem.rail import waveguide
 
     g = waveguide.assemble(meshing.mesh_profile(profiles.rectangle(0.02, 0.05), 0.01))
     shapes = jobs.wave_shapes(g, 1000.0)
@@ -228,7 +232,7 @@ def test_timoshenko_discrete_uses_the_pad_length(tmp_path):
     it; a 150 mm pad changes the point mobility above the rail-on-pad resonance."""
     _, point = _track(tmp_path, "point", *TRACK_FAST, "--pad-length", "0")
     _, pad = _track(tmp_path, "pad", *TRACK_FAST, "--pad-length", "150")
-    from railfem.frfio import read_frf_csv
+    from railfem.io.frf_csv import read_frf_csv
 
     a = read_frf_csv(point / "transfer_mobility.csv").values[:, 0, 0]
     b = read_frf_csv(pad / "transfer_mobility.csv").values[:, 0, 0]
@@ -274,7 +278,7 @@ def test_track_job_lateral_outputs(tmp_path):
     decay rate next to the vertical ones, the lateral transfer mobilities it comes from
     (recomputing the decay rate from that file gives the column back) and a run.json block;
     without 'y' it writes none of them."""
-    from railfem.frfio import read_frf_csv
+    from railfem.io.frf_csv import read_frf_csv
     from railfem.standards import en15461
 
     code, out = _track(tmp_path, "lat", "--preset", "site", "--model", "wfe-periodic",

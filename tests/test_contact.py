@@ -12,7 +12,7 @@ import math
 import numpy as np
 import pytest
 
-from railfem import contact
+from railfem.wheelrail import contact
 
 # theta (deg): (m, n), Timoshenko & Goodier Table (section 140)
 TG_TABLE = {30: (2.731, 0.493), 35: (2.397, 0.530), 40: (2.136, 0.567), 45: (1.926, 0.604),

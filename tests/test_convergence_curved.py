@@ -13,7 +13,10 @@ Measured on the shipped meshes (Richardson from 5, 3.5 and 2.5 mm): the six firs
 import numpy as np
 import pytest
 
-from railfem import convergence, meshing, waveguide, waves
+from railfem.studies import convergence
+from railfem.rail import meshing
+from railfem.rail import waveguide
+from railfem.rail import waves
 
 SHIPPED = [0.02, 0.015, 0.01, 0.0075, 0.005, 0.0035, 0.0025]
 

@@ -485,7 +485,7 @@ def test_passby_decay_rates_become_repeated_records():
 
 
 def test_diagnose_job_refuses_mixed_or_several_data(tmp_path):
-    from railfem.diagnosejob import run_diagnose
+    from railfem.jobs.diagnose import run_diagnose
 
     (tmp_path / "a.npz").write_bytes(b"")
     with pytest.raises(ValueError, match="mixes pass-by recordings"):

@@ -1,4 +1,4 @@
-"""The support hooks the effect library uses (railfem.supports): a fractional Zener pad,
+"""The support hooks the effect library uses (railfem.track.supports): a fractional Zener pad,
 a dashpot at the rail foot and a rail absorber, each against its closed form; the two
 coupling paths (eigen form and direct solve) agree with the hooks on; deviations keep the
 laws; specs with laws write to JSON."""
@@ -14,8 +14,9 @@ from railfem.diagnosis.evaluate import Evaluator
 from railfem.diagnosis.data import prepare
 from railfem.measurement import HammerMeasurement, Sensor
 from railfem.spec import SupportDeviation, spec_to_dict
-from railfem.supports import (FootDashpot, FractionalZener, RailAbsorber, SupportParameters,
-                              dynamic_stiffness)
+from railfem.track.supports import (
+    FootDashpot, FractionalZener, RailAbsorber, SupportParameters, dynamic_stiffness,
+)
 
 W = 2 * np.pi * np.array([1.0, 30.0, 100.0, 400.0, 1000.0, 3000.0])
 RIGID_BALLAST = dict(ms=0.0, kb=math.inf)

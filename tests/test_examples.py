@@ -53,7 +53,8 @@ def check_first_cut_on(f_hz):
 def _site_timoshenko_point_100hz():
     """Point mobility of the site track at 100 Hz from the Timoshenko beam on discrete
     supports (a different model from the WFE rail of the example)."""
-    from railfem import beams, supports
+    from railfem.track import beams
+    from railfem.track import supports
 
     tp = supports.preset("site")
     section = beams.BeamSection(E=E, G=G, area=A_60E1,
@@ -88,7 +89,9 @@ def check_passby_simplified_1khz(level_db):
     |a + a_c + a_w|^2>_band N / (beta L), N = 24 wheels, L the averaging length
     (train 116.6 m + 2 x 42 m + one 0.1 m step), default roughness 10 lg(lambda/10 mm) dB
     re 1 um at 60 m/s, no contact filter, rigid 600 kg wheel."""
-    from railfem import beams, contact, supports
+    from railfem.track import beams
+    from railfem.wheelrail import contact
+    from railfem.track import supports
     from railfem.standards import en15461, iec61260
 
     tp = supports.preset("site")

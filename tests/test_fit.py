@@ -23,7 +23,7 @@ from railfem.identify.spectral import spectral_coupling
 from railfem.measurement import DecayRateMeasurement, HammerMeasurement, Sensor
 from railfem.params import ParameterSpace
 from railfem.standards import iec61260
-from railfem.supports import SupportParameters, dynamic_stiffness
+from railfem.track.supports import SupportParameters, dynamic_stiffness
 
 F = iec61260.ninth_octave_grid(50, 8000)
 TRUTH = dict(kp=400e6, eta_p=0.2, kb=60e6, eta_b=1.0, eta_r=0.02, ms=150.0)

@@ -1,4 +1,4 @@
-"""Pad footprints across the rail foot (railfem.footprints): the seed's node springs
+"""Pad footprints across the rail foot (railfem.track.footprints): the seed's node springs
 reproduced exactly, shape-function springs that interpolate the FE field (straight and curved
 edges), and the midpoint springs converging to the consistent bed at the rate of the rule."""
 import dataclasses
@@ -6,8 +6,11 @@ import dataclasses
 import numpy as np
 import pytest
 
-from railfem import footprints, meshing, track, waveguide
-from railfem.supports import foot_spring_weights
+from railfem.track import footprints
+from railfem.rail import meshing
+from railfem.track import wfe as track
+from railfem.rail import waveguide
+from railfem.track.supports import foot_spring_weights
 
 _GUIDES = {}
 

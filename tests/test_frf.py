@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from railfem.frf import FRF
-from railfem.frfio import FRFFileError, read_frf_csv, write_frf_csv
+from railfem.io.frf_csv import FRFFileError, read_frf_csv, write_frf_csv
 from railfem.standards.iec61260 import band_average, ninth_octave_grid, third_octave_bands
 
 

@@ -13,12 +13,12 @@ import sys
 from pathlib import Path
 
 HEAVY = ("gmsh", "pyvista", "vtk", "vtkmodules", "matplotlib")
-CORE = ("railfem", "railfem.profiles", "railfem.meshing", "railfem.forms", "railfem.waveguide",
-        "railfem.waves", "railfem.section", "railfem.mobility", "railfem.supports",
-        "railfem.beams", "railfem.frf", "railfem.standards", "railfem.standards.en15461",
+CORE = ("railfem", "railfem.rail.profiles", "railfem.rail.meshing", "railfem.rail.forms", "railfem.rail.waveguide",
+        "railfem.rail.waves", "railfem.rail.section", "railfem.rail.mobility", "railfem.track.supports",
+        "railfem.track.beams", "railfem.frf", "railfem.standards", "railfem.standards.en15461",
         "railfem.standards.iec61260", "railfem.spec", "railfem.models",
-        "railfem.params", "railfem.coupling", "railfem.kernelcache", "railfem.atomic")
-EDGE = ("railfem.plotting", "railfem.rendering", "railfem.jobs", "railfem.cli")
+        "railfem.params", "railfem.track.coupling", "railfem.track.kernelcache", "railfem.atomic")
+EDGE = ("railfem.plotting", "railfem.plotting.render", "railfem.jobs.common", "railfem.cli")
 
 CHILD = """
 import importlib, json, sys

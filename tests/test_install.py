@@ -29,7 +29,7 @@ def test_non_editable_install_runs_the_track_job(tmp_path):
                          capture_output=True, text=True, timeout=600, env=env)
     assert pip.returncode == 0, pip.stderr[-3000:]
     shutil.rmtree(src)  # nothing may come from the source tree any more
-    where = subprocess.run([str(py), "-c", "import railfem, railfem.meshing as m; "
+    where = subprocess.run([str(py), "-c", "import railfem, railfem.rail.meshing as m; "
                             "print(railfem.__file__); print(m.MESH_DIR)"],
                            capture_output=True, text=True, cwd=tmp_path, env=env, timeout=60)
     module, mesh_dir = where.stdout.split()

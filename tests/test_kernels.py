@@ -1,4 +1,4 @@
-"""Kernel + coupling (railfem.track, railfem.beams, railfem.coupling) against the direct
+"""Kernel + coupling (railfem.track.wfe, railfem.track.beams, railfem.track.coupling) against the direct
 solves they replace: the frozen copy of railfem at commit 4bb7c79 in
 tests/reference/track_4bb7c79.py computes the expected values on the same waves. Random
 support parameters (seeded), per-support differences, spread pads, both WFE models and the
@@ -6,7 +6,12 @@ beam: equal to 1e-10 relative to the largest response (periodic: 2e-9, see below
 import numpy as np
 import pytest
 
-from railfem import beams, meshing, mobility, supports, track, waveguide
+from railfem.track import beams
+from railfem.rail import meshing
+from railfem.rail import mobility
+from railfem.track import supports
+from railfem.track import wfe as track
+from railfem.rail import waveguide
 from railfem.materials import Material
 from tests.reference import track_4bb7c79 as ref
 
@@ -29,7 +34,7 @@ def same_waves(monkeypatch):
     """Both codes see the same wave sets: ARPACK's start vector comes from a generator whose
     state carries over between calls, so two solves at one frequency agree only to the
     solver tolerance (1e-10); the comparison here is of the kernel and coupling algebra."""
-    from railfem import waves
+    from railfem.rail import waves
 
     memo = {}
 

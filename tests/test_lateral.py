@@ -3,7 +3,7 @@
 Independent checks: the sum/difference spring columns against the same springs taken one by
 one (no pairing), the mirror-split coupling against the plain dense solve, reciprocity
 between a vertical and a lateral load (both families active), the WFE rail on a continuous
-support against the lateral bending-torsion beam (railfem.beams.LateralSection) at low
+support against the lateral bending-torsion beam (railfem.track.beams.LateralSection) at low
 frequency, discrete vs periodic supports, and vertical results unchanged by the new
 horizontal fields when the supports act vertically only."""
 from dataclasses import replace
@@ -12,9 +12,16 @@ import numpy as np
 import pytest
 
 import railfem as rf
-from railfem import beams, coupling, footprints, meshing, mobility, models, section, supports
-from railfem import track
-from railfem import waveguide
+from railfem import models
+from railfem.track import beams
+from railfem.track import coupling
+from railfem.track import footprints
+from railfem.rail import meshing
+from railfem.rail import mobility
+from railfem.rail import section
+from railfem.track import supports
+from railfem.track import wfe as track
+from railfem.rail import waveguide
 from railfem.materials import Material
 from railfem.spec import RailSpec
 
@@ -146,7 +153,7 @@ def test_lateral_wfe_against_bending_torsion_beam_on_continuous_support(rail):
 
 def test_lateral_beam_decouples_to_timoshenko():
     """With the shear centre at the centroid and the foundation at the shear centre, the
-    lateral beam's v is the plain Timoshenko beam in lateral bending (railfem.beams)."""
+    lateral beam's v is the plain Timoshenko beam in lateral bending (railfem.track.beams)."""
     m = Material.steel(0.02)
     ls = beams.LateralSection(E=m.E, G=m.G, rho=m.rho, eta=0.02, area=7.67e-3, I_z=5.12e-6,
                               kappa_y=0.55, J=2.2e-6, Gamma=1.6e-8, I_p=3.55e-5, z_s=0.05,

@@ -1,4 +1,4 @@
-"""Any section mesh in: mesh files read with meshio (railfem.meshing.read_mesh).
+"""Any section mesh in: mesh files read with meshio (railfem.rail.meshing.read_mesh).
 
 The files are written here by other tools than railfem's mesher: the Gmsh API directly
 (a 6-node mesh of an asymmetric 60E1, metres, x lateral / y vertical, .msh 2.2 and 4.1) and
@@ -11,8 +11,13 @@ import json
 import numpy as np
 import pytest
 
-from railfem import cli, meshing, profiles, section, waveguide, waves
-from railfem.frfio import read_frf_csv
+from railfem import cli
+from railfem.rail import meshing
+from railfem.rail import profiles
+from railfem.rail import section
+from railfem.rail import waveguide
+from railfem.rail import waves
+from railfem.io.frf_csv import read_frf_csv
 
 SHIFT = 0.3e-3  # m: the right half of the head is widened by 0.3 mm
 

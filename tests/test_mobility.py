@@ -1,4 +1,4 @@
-"""Free-rail forced response (railfem.mobility) against independent answers (METHOD.md §1).
+"""Free-rail forced response (railfem.rail.mobility) against independent answers (METHOD.md §1).
 
 * low-frequency limit: vertical point and transfer receptance of the rail head under the
   patch load against the free Timoshenko beam with the section constants of the mesh and
@@ -21,8 +21,15 @@ import scipy.sparse.linalg as spl
 from numpy.polynomial import chebyshev
 from scipy.integrate import quad
 
-from railfem import beams, cli, meshing, mobility, profiles, section, waveguide, waves
-from railfem.frfio import read_frf_csv
+from railfem import cli
+from railfem.track import beams
+from railfem.rail import meshing
+from railfem.rail import mobility
+from railfem.rail import profiles
+from railfem.rail import section
+from railfem.rail import waveguide
+from railfem.rail import waves
+from railfem.io.frf_csv import read_frf_csv
 from railfem.materials import Material
 
 STEEL = Material.steel()

@@ -9,11 +9,14 @@ same track (railfem.standards.en15461)."""
 import numpy as np
 import pytest
 
-from railfem import beams, contact, roughness, wheels
+from railfem.track import beams
+from railfem.wheelrail import contact
+from railfem.wheelrail import roughness
+from railfem.wheelrail import wheels
 from railfem.simulate import passby as P
 from railfem.simulate.train import TrainLayout, default_train, from_cars, read_train_layout
 from railfem.standards import en15461, iec61260
-from railfem.supports import preset, uniform_layout
+from railfem.track.supports import preset, uniform_layout
 from railfem.models import beam_section
 from railfem.spec import preset as rf_preset
 from railfem.spec import RailSpec

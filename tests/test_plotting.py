@@ -170,7 +170,7 @@ def test_draws_into_given_axes_and_saves_axes(tmp_path):
 
 # ------------------------------------------------------------------ dispersion branches
 def synthetic_branches():
-    from railfem.branches import Branches
+    from railfem.rail.branches import Branches
 
     f = np.linspace(50, 3000, 30)
     k_v = np.sqrt(2 * np.pi * f) * 0.12
@@ -213,7 +213,7 @@ def test_branch_colours_follow_the_wave_type():
 def test_dispersion_job_legend_is_one_entry_per_branch_in_words(tmp_path, monkeypatch):
     """The omega(k) plot of the job used to append a family tag to each label ('... (sym.)
     (symm.)') and to drop the longitudinal branch from the legend."""
-    from railfem import jobs
+    from railfem.jobs import common as jobs
 
     seen = {}
     save = plotting.save_figure

@@ -8,8 +8,11 @@ a rectangle for nu = 0 (Cowper 1966).
 import numpy as np
 import pytest
 
-from railfem import meshing, profiles, section, waveguide
-from railfem.profiles import EN13674_60E1, RailProfile
+from railfem.rail import meshing
+from railfem.rail import profiles
+from railfem.rail import section
+from railfem.rail import waveguide
+from railfem.rail.profiles import EN13674_60E1, RailProfile
 
 
 # ----------------------------------------------------------------------- fixtures

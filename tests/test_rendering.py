@@ -1,4 +1,4 @@
-"""Tests for railfem.rendering (off-screen PyVista renders of wave shapes)."""
+"""Tests for railfem.plotting.render (off-screen PyVista renders of wave shapes)."""
 
 import os
 
@@ -7,7 +7,7 @@ import pytest
 
 pytest.importorskip("pyvista")
 
-from railfem import rendering  # noqa: E402
+from railfem.plotting import render as rendering
 
 
 def rectangle_p2(width=0.07, height=0.17, nx=3, nz=6):

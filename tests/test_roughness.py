@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from railfem import roughness as R
+from railfem.wheelrail import roughness as R
 
 SBB = ("loc,sec,r_id,Author,kampagne,messdatum,rail,0.5012,0.631,0.7943,1,1.2589\n"
        "Ni,B2,3.0,ACCON,1,2014-07-01,L,,-10.0,-8.0,-6.0,-4.0\n"

@@ -4,10 +4,13 @@ import json
 import numpy as np
 import pytest
 
-from railfem import contact, roughness as R, supports, wheels
+from railfem.wheelrail import contact
+from railfem.wheelrail import roughness as R
+from railfem.track import supports
+from railfem.wheelrail import wheels
 from railfem.cli import main
 from railfem.io.recording import write_recording
-from railfem.roughnessjob import resolve_track
+from railfem.jobs.roughness import resolve_track
 from railfem.simulate import passby as P, signals
 from railfem.simulate.train import from_cars
 from railfem.spec import preset, spec_to_dict
@@ -112,7 +115,7 @@ def test_simplified_with_the_decay_rate_of_a_hammer_dataset(tmp_path, recordings
     from railfem import models
     from railfem.io import write_dataset
     from railfem.io.hammer import hammer_measurement
-    from railfem.roughnessjob import run_roughness
+    from railfem.jobs.roughness import run_roughness
 
     spec = preset("site", model="timoshenko-discrete")
     f = ninth_octave_grid(250.0, 2000.0)

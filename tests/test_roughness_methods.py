@@ -12,7 +12,10 @@ import math
 import numpy as np
 import pytest
 
-from railfem import contact, roughness as R, supports, wheels
+from railfem.wheelrail import contact
+from railfem.wheelrail import roughness as R
+from railfem.track import supports
+from railfem.wheelrail import wheels
 from railfem.estimators.passby import PassbyOptions, passby_decay_rate
 from railfem.estimators.passby_level import passby_level
 from railfem.identify import roughness as RM

@@ -1,4 +1,4 @@
-"""Support convergence of the WFE track (railfem.support_convergence): the rail-on-pad
+"""Support convergence of the WFE track (railfem.studies.support_convergence): the rail-on-pad
 peak finder against a fine frequency grid, the peak against an independent model
 (Timoshenko beam on the same discrete supports), and convergence in the springs across the
 foot, the rows along the pad and the section mesh. The studies on the fine meshes are slow.
@@ -17,8 +17,11 @@ Measured peaks (site preset, head point mobility, 41 supports; Hz):
 import numpy as np
 import pytest
 
-from railfem import beams, cli, section, supports
-from railfem import support_convergence as sc
+from railfem import cli
+from railfem.track import beams
+from railfem.rail import section
+from railfem.track import supports
+from railfem.studies import support_convergence as sc
 from railfem.materials import Material
 
 SITE = supports.preset("site")

@@ -1,11 +1,11 @@
-"""Tests of railfem.supports against hand formulas and physical limits."""
+"""Tests of railfem.track.supports against hand formulas and physical limits."""
 import dataclasses
 import math
 
 import numpy as np
 import pytest
 
-from railfem import supports as sp
+from railfem.track import supports as sp
 
 OMEGA = 2 * np.pi * np.array([0.0, 10.0, 63.0, 250.0, 1000.0, 4000.0])
 

@@ -1,18 +1,22 @@
-"""Supported WFE track (railfem.track) against independent answers: the Timoshenko beam
-tracks of railfem.beams (a different model), the continuous support, truncation against
+"""Supported WFE track (railfem.track.wfe) against independent answers: the Timoshenko beam
+tracks of railfem.track.beams (a different model), the continuous support, truncation against
 the infinite periodic solution, and the attenuation of the least-attenuated wave."""
 from dataclasses import replace
 
 import numpy as np
 import pytest
 
-from railfem import meshing, mobility, supports, track, waveguide
+from railfem.rail import meshing
+from railfem.rail import mobility
+from railfem.track import supports
+from railfem.track import wfe as track
+from railfem.rail import waveguide
 from railfem.materials import Material
 from railfem.standards import en15461
 from railfem import models
 from railfem.spec import RailSpec, preset
-from railfem.labels import label_waves
-from railfem.waves import waves_at
+from railfem.rail.labels import label_waves
+from railfem.rail.waves import waves_at
 
 def track_receptance(model, tp, mesh, f, fx, rx, n_supports=131):
     """Receptance (nf, 2 [head, foot], n_rx, n_fx) through the model door (no disk cache)."""
@@ -180,7 +184,7 @@ def test_track_command_writes_readable_outputs(tmp_path):
     import json
 
     from railfem import cli
-    from railfem.frfio import read_frf_csv
+    from railfem.io.frf_csv import read_frf_csv
 
     out = tmp_path / "site"
     assert cli.main(["-q", "track", "--preset", "site", "--model", "timoshenko-discrete",
@@ -219,10 +223,10 @@ def test_requests_outside_a_models_range_are_flagged(caplog):
     with caplog.at_level(logging.WARNING, logger="railfem.models"):
         rf.receptance(spec, [100.0, 1000.0], [0.3], [5.0], cache=False)
     assert caplog.text == ""  # inside every range: nothing said
-    from railfem import waveguide
+    from railfem.rail import waveguide
 
     guide = waveguide.assemble(meshing.get_mesh("60E1", 0.02))
-    with caplog.at_level(logging.WARNING, logger="railfem.waveguide"):
+    with caplog.at_level(logging.WARNING, logger="railfem.rail.waveguide"):
         waveguide.check_resolution(guide, 1.0e6)
     assert "elements per shortest" in caplog.text
 

@@ -5,7 +5,7 @@
   out here in closed form; for the monosymmetric UIC60 the lateral wave couples with torsion
   through the shear-centre offset, so lateral bending is also compared with the coupled
   Timoshenko / Vlasov beam whose shear centre and warping constant come from the section's
-  warping function, solved here independently of railfem.section;
+  warping function, solved here independently of railfem.rail.section;
 * longitudinal wave speed sqrt(E/rho) with Love's lateral-inertia correction;
 * torsional wave speed sqrt(G J / (rho I_p)) with J from St-Venant (Prandtl) torsion;
 * the +k/-k symmetry of A(k), and the roots of the 2N linearisation of the unreduced problem
@@ -19,7 +19,11 @@ import pytest
 import scipy.linalg as sl
 from scipy.optimize import brentq, linear_sum_assignment
 
-from railfem import meshing, profiles, section, waveguide, waves
+from railfem.rail import meshing
+from railfem.rail import profiles
+from railfem.rail import section
+from railfem.rail import waveguide
+from railfem.rail import waves
 from railfem.materials import Material
 
 STEEL = Material.steel()
@@ -50,7 +54,7 @@ def warping_properties(mesh):
     from skfem.helpers import dot, grad
 
     A, cz, Iy, Iz = section.moments(mesh)
-    # the same (curved) geometry as railfem.section, so the two J bracket one another
+    # the same (curved) geometry as railfem.rail.section, so the two J bracket one another
     basis = Basis(meshing.skfem_mesh(mesh), ElementTriP2())
 
     @BilinearForm

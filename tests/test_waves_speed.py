@@ -1,4 +1,4 @@
-"""The fast wave solver (railfem.waves): same matrices and waves as the straightforward
+"""The fast wave solver (railfem.rail.waves): same matrices and waves as the straightforward
 build, the in-memory wave cache, BLAS thread pinning and the real-arithmetic frozen tail.
 
 Speed itself is measured in benchmarks/bench_waveguide.py, not asserted here.
@@ -8,7 +8,10 @@ import pytest
 import scipy.sparse as sp
 from scipy.optimize import linear_sum_assignment
 
-from railfem import meshing, mobility, waveguide, waves
+from railfem.rail import meshing
+from railfem.rail import mobility
+from railfem.rail import waveguide
+from railfem.rail import waves
 from railfem.materials import Material
 
 _GUIDES = {}

@@ -2,7 +2,8 @@
 import numpy as np
 import pytest
 
-from railfem import rendering, wheelfe
+from railfem.plotting import render as rendering
+from railfem.wheelrail import wheelfe
 
 
 def _ring():

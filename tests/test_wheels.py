@@ -11,9 +11,10 @@ import numpy as np
 import pytest
 from scipy import optimize, special
 
-from railfem import wheelfe, wheels
+from railfem.wheelrail import wheelfe
+from railfem.wheelrail import wheels
 from railfem.frf import FRF
-from railfem.frfio import write_frf_csv
+from railfem.io.frf_csv import write_frf_csv
 
 E, NU, RHO = 2.1e11, 0.3, 7850.0
 G = E / (2 * (1 + NU))

@@ -13,7 +13,7 @@
 
 Lengths on the command line are in mm (element sizes), frequencies in Hz, wavenumbers in
 rad/m. Each subcommand parses its arguments and calls one function of
-:mod:`railfem.jobs`; progress and messages go to stderr. Bad input (unknown profile,
+:mod:`railfem.jobs.common`; progress and messages go to stderr. Bad input (unknown profile,
 unreadable file, impossible values) ends with a one-line message and exit code 2.
 
 New subcommands register in ``COMMANDS`` (name -> (add_arguments, run, help)). The
@@ -113,8 +113,8 @@ class _StderrHandler(logging.StreamHandler):
         pass
 
 
-_QUIET_MODULES = ("railfem.meshing", "railfem.waveguide", "railfem.plotting",
-                  "railfem.rendering")
+_QUIET_MODULES = ("railfem.rail.meshing", "railfem.rail.waveguide", "railfem.plotting",
+                  "railfem.plotting.render")
 
 
 def _setup_logging(verbose: int, quiet: bool):

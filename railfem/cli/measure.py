@@ -42,7 +42,7 @@ def tdr_passby_args(p: argparse.ArgumentParser) -> None:
 
 def tdr_passby_run(args) -> int:
     from ..estimators.passby import PassbyOptions
-    from ..tdrpassbyjob import run_tdr_passby
+    from ..jobs.tdr_passby import run_tdr_passby
 
     opts = PassbyOptions(f_low=args.f_low, f_high=args.f_high, l1=args.l1,
                          l3_low=args.l3_low, l3_high=args.l3_high, l3_split_hz=args.l3_split)
@@ -86,7 +86,7 @@ def tdr_args(p: argparse.ArgumentParser) -> None:
 
 def tdr_run(args) -> int:
     from ..estimators.tdr import NO_EXCLUSION, NoiseFloorExclusion
-    from ..tdrjob import run_tdr_hammer
+    from ..jobs.tdr_hammer import run_tdr_hammer
 
     if args.no_exclusion:
         exclusion = NO_EXCLUSION
@@ -146,7 +146,7 @@ def fit_args(p: argparse.ArgumentParser) -> None:
 
 
 def fit_run(args) -> int:
-    from ..fitjob import parse_use, run_fit
+    from ..jobs.fit import parse_use, run_fit
     from ..spec import preset
 
     use = parse_use(args.use) if args.use else None
@@ -201,7 +201,7 @@ def diagnose_args(p: argparse.ArgumentParser) -> None:
 
 
 def diagnose_run(args) -> int:
-    from ..diagnosejob import run_diagnose
+    from ..jobs.diagnose import run_diagnose
 
     effects = ([x.strip() for x in args.effects.split(",") if x.strip()]
                if args.effects else None)

@@ -10,9 +10,9 @@ from .common import count, non_negative, positive, report_written
 
 # ------------------------------------------------------------------------ pass-by
 def passby_args(p: argparse.ArgumentParser) -> None:
-    from ..passbyjob import CONTACT_FILTERS
+    from ..jobs.passby import CONTACT_FILTERS
     from ..simulate.passby import CONTINUOUS_OF, FORMS, OUTPUTS
-    from ..supports import PRESETS
+    from ..track.supports import PRESETS
 
     p.add_argument("--config", type=Path, metavar="TOML",
                    help="options from a TOML file (keys = option names with underscores); "
@@ -53,7 +53,7 @@ def passby_args(p: argparse.ArgumentParser) -> None:
 
 
 def passby_run(args) -> int:
-    from ..passbyjob import read_config, run_passby
+    from ..jobs.passby import read_config, run_passby
 
     opts = read_config(args.config) if args.config else {}
     given = {"preset": args.preset, "model": args.model, "train": args.train,
@@ -80,7 +80,7 @@ def passby_run(args) -> int:
 
 # ------------------------------------------------------------------- roughness
 def roughness_args(p: argparse.ArgumentParser) -> None:
-    from ..roughnessjob import A_TERMS, METHODS
+    from ..jobs.roughness import A_TERMS, METHODS
     from ..spec import MODELS
 
     p.add_argument("recordings", nargs="+", type=Path, metavar="RECORDING",
@@ -113,7 +113,7 @@ def roughness_args(p: argparse.ArgumentParser) -> None:
 
 
 def roughness_run(args) -> int:
-    from ..roughnessjob import run_roughness
+    from ..jobs.roughness import run_roughness
 
     s = run_roughness(args.recordings, args.out, track=args.track, method=args.method,
                       tdr=args.tdr, a_terms=args.a_terms, model=args.model,
@@ -150,7 +150,7 @@ def study_args(p: argparse.ArgumentParser) -> None:
 
 
 def study_run(args) -> int:
-    from ..studyjob import SPEEDS_KMH, STUDY_TRACKS, run_passby_study
+    from ..jobs.study import SPEEDS_KMH, STUDY_TRACKS, run_passby_study
 
     s = run_passby_study(args.out, model=args.model, tracks=args.tracks or STUDY_TRACKS,
                          speeds_kmh=args.speeds_kmh or SPEEDS_KMH,

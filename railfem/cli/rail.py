@@ -23,7 +23,7 @@ def mesh_args(p: argparse.ArgumentParser) -> None:
 
 
 def mesh_run(args) -> int:
-    from .. import jobs
+    from ..jobs import common as jobs
 
     if args.shipped:
         results = jobs.run_shipped_meshes(args.out, progress=jobs.progress_logger("meshes"))
@@ -74,7 +74,7 @@ def dispersion_args(p: argparse.ArgumentParser) -> None:
 
 
 def dispersion_run(args) -> int:
-    from .. import jobs
+    from ..jobs import common as jobs
 
     freq_opts = any(v is not None for v in (args.fmin, args.fmax, args.n))
     if args.k_range is not None and (freq_opts or args.frequencies is not None):
@@ -137,7 +137,7 @@ def convergence_args(p: argparse.ArgumentParser) -> None:
 
 
 def convergence_run(args) -> int:
-    from .. import jobs
+    from ..jobs import common as jobs
 
     sizes = np.array(args.sizes) * 1e-3
     paths = jobs.run_convergence(args.profile, sizes, args.out, frequencies=args.frequencies,
@@ -252,7 +252,7 @@ def mobility_frequencies(args):
 
 
 def mobility_run(args) -> int:
-    from .. import mobilityjob
+    from ..jobs import mobility as mobilityjob
 
     if args.mesh is None and args.h < 1.0:
         raise BadInput(f"--h is the element size in mm like for the other commands; "

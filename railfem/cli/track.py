@@ -90,7 +90,7 @@ def track_spec_from_args(args):
     from dataclasses import replace
 
     from ..spec import preset, spec_from_dict
-    from ..trackjob import job_from_dict, read_config
+    from ..jobs.track import job_from_dict, read_config
 
     if args.config is not None and args.from_run is not None:
         raise BadInput("give either --config or --from-run, not both")
@@ -127,7 +127,7 @@ def track_spec_from_args(args):
 
 
 def track_run(args) -> int:
-    from ..trackjob import run_track
+    from ..jobs.track import run_track
 
     spec, job = track_spec_from_args(args)
     cache = False if args.no_cache else args.cache_dir
@@ -140,8 +140,8 @@ def track_run(args) -> int:
 
 
 def support_args(p: argparse.ArgumentParser) -> None:
-    from ..footprints import RULES
-    from ..supports import PRESETS
+    from ..track.footprints import RULES
+    from ..track.supports import PRESETS
 
     add_profile(p, h_default=None)
     p.add_argument("--preset", choices=sorted(PRESETS), default="site",
@@ -169,8 +169,8 @@ def support_args(p: argparse.ArgumentParser) -> None:
 
 
 def support_run(args) -> int:
-    from .. import jobs
-    from ..support_convergence import sweeps
+    from ..jobs import common as jobs
+    from ..studies.support_convergence import sweeps
 
     cases = sweeps(np.array(args.sizes) * 1e-3, args.width, args.rows, args.pad_lengths,
                    rule=args.rule, rows_ref=args.rows_ref)

@@ -21,7 +21,7 @@ import numpy as np
 from railfem import models
 from railfem.identify.forward import Geometry, SpectralEngine
 from railfem.identify.spectral import SpectralCoupling, check, spectral_coupling
-from railfem.supports import SupportParameters, dynamic_stiffness
+from railfem.track.supports import SupportParameters, dynamic_stiffness
 
 log = logging.getLogger(__name__)
 

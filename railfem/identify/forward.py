@@ -5,7 +5,7 @@ kinds (METHOD.md section 7, "Separate what depends on parameters from what does 
 
 * **support parameters** (FAST: kp, eta_p, kb, eta_b, ms) enter the discrete and periodic
   models only through the support dynamic stiffness K_s(omega): the parameter-free kernel
-  is computed once (railfem.models.discrete_kernel, cached by railfem.kernelcache) and a new
+  is computed once (railfem.models.discrete_kernel, cached by railfem.track.kernelcache) and a new
   parameter set costs the coupling alone; on uniform discrete tracks the coupling itself is
   a short sum (railfem.identify.spectral);
 * **kernel parameters** (SLOW: eta_r, pad_length) change the free rail or the support
@@ -25,11 +25,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 
-from railfem import __version__, kernelcache, models
+from railfem import __version__, models
+from railfem.track import kernelcache
 from railfem.identify.spectral import SpectralCoupling, spectral_coupling
 from railfem.params import ParameterSpace
 from railfem.spec import TrackSpec, spec_to_dict
-from railfem.supports import dynamic_stiffness
+from railfem.track.supports import dynamic_stiffness
 
 log = logging.getLogger(__name__)
 

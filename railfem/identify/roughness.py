@@ -44,9 +44,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from railfem import contact as contact_mod
+from railfem.wheelrail import contact as contact_mod
 from railfem.conventions import R_REF
-from railfem.roughness import wavelength_bands
+from railfem.wheelrail.roughness import wavelength_bands
 from railfem.estimators.passby_level import V_REF, PassbyLevel
 from railfem.simulate import passby as P
 from railfem.simulate.train import TrainLayout
@@ -230,8 +230,8 @@ def a_terms_default(spec, bands: ThirdOctaveBands, frequency, *, wheel_receptanc
     """The original method's A1, A2: A1 = 0 dB (held above 4 kHz, where it no longer
     applies: a warning), A2 from the continuously supported Timoshenko track of ``spec``
     (railfem.spec.TrackSpec) with a flexible wheel: ``wheel_receptance`` (nf,) on
-    ``frequency``, default railfem.wheels.flexible_wheel() (the 920 mm wheel)."""
-    from railfem import wheels as W
+    ``frequency``, default railfem.wheelrail.wheels.flexible_wheel() (the 920 mm wheel)."""
+    from railfem.wheelrail import wheels as W
     from railfem.models import receptance
 
     f = np.asarray(frequency, dtype=float)

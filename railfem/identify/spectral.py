@@ -1,10 +1,10 @@
 """The coupling solve of a uniform discrete track as a rational function of one number.
 
 On a uniform track every spring set carries the same support dynamic stiffness K_s(omega)
-times a fixed share (railfem.coupling: spring j of set s has K_s(omega) w_s p_j), so at
+times a fixed share (railfem.track.coupling: spring j of set s has K_s(omega) w_s p_j), so at
 each frequency the support parameters (kp, eta_p, kb, eta_b, ms) enter the coupled
 response only through the complex scalar K_s. With A = diag(w) alpha_ss diagonalised once,
-A = V diag(lambda) V^-1, the coupling of railfem.coupling becomes
+A = V diag(lambda) V^-1, the coupling of railfem.track.coupling becomes
 
     u(K_s) = alpha_rP - sum_m R_m K_s / (1 + K_s lambda_m),
     R_m = (alpha_rs V)[:, m] (V^-1 diag(w) alpha_sP)[m, :]
@@ -20,7 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from railfem.coupling import DiscreteKernel, couple_discrete
+from railfem.track.coupling import DiscreteKernel, couple_discrete
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -52,7 +52,7 @@ class SpectralCoupling:
 
 def _gathers(kernel: DiscreteKernel, pattern: np.ndarray):
     """Flat indices of alpha_ss (n, n), alpha_sP (n, n_fx), alpha_rs (n_out n_rx, n) and the
-    spring shares w (n,), springs set-major as in railfem.coupling."""
+    spring shares w (n,), springs set-major as in railfem.track.coupling."""
     n_s, n_p, n_rx, n_fx = kernel.shape
     n_out = kernel.rs.shape[2]
     n = n_s * n_p

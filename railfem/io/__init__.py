@@ -10,13 +10,13 @@
 * :func:`read_decay_rate_table` / :func:`write_decay_rate_table` — wide decay-rate tables
   (:mod:`.tdr_table`);
 * :func:`read_frf_csv` / :func:`write_frf_csv` — railfem's own tagged FRF CSV
-  (:mod:`railfem.frfio`);
+  (:mod:`railfem.io.frf_csv`);
 * :mod:`.recording` — one-sensor pass-by recordings for the decay-rate estimators.
 
 Malformed input raises a subclass of :class:`MeasurementFileError` (a ``ValueError``) that
 names the file, the line/column/key, the value and the fix.
 """
-from railfem.frfio import FRFFileError, read_frf_csv, write_frf_csv
+from railfem.io.frf_csv import FRFFileError, read_frf_csv, write_frf_csv
 from railfem.io.config import read_descriptor, read_measurement
 from railfem.io.dataset import read_dataset, write_dataset
 from railfem.io.errors import (FrequencyAxisError, MalformedFileError, MeasurementFileError,

@@ -18,7 +18,7 @@ what they share (matplotlib setup, :func:`save_figure`, argument checks, band ax
 
 from __future__ import annotations
 
-from ..branches import MAX_ATTENUATION, propagating_mask
+from ..rail.branches import MAX_ATTENUATION, propagating_mask
 from .base import nominal_band_label, save_figure
 from .diagnosis import (plot_candidate_scores, plot_error_before_after, plot_residual_distance,
                         plot_residual_map, plot_residual_spectrum)

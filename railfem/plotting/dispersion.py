@@ -7,7 +7,7 @@ import logging
 
 import numpy as np
 
-from ..branches import MAX_ATTENUATION, propagating_mask
+from ..rail.branches import MAX_ATTENUATION, propagating_mask
 from .base import MARKERS, axes_or_new, columns, curve_labels, legend, vector
 
 log = logging.getLogger(__name__)
@@ -118,7 +118,7 @@ def branch_colours(labels) -> list[str]:
 
 
 def plot_branches(branches, *, ax=None, markers: bool | None = None):
-    """Dispersion branches (railfem.branches.Branches): x = Re k (rad/m), y = frequency (Hz).
+    """Dispersion branches (railfem.rail.branches.Branches): x = Re k (rad/m), y = frequency (Hz).
 
     One line per branch, one colour per branch (TYPE_COLOURS for the wave types), solid for
     the symmetric and dashed for the antisymmetric family, and one legend entry per branch

@@ -147,7 +147,7 @@ def plot_decay_rate(centres, decay_rate, labels=None, *, d_min=None, fails=None,
     limit : (band centres Hz, limit dB/m), e.g. railfem.standards.iso3095.track_decay_limit
     ('vertical'): drawn black dashed; bands below it get a red cross and a legend entry.
     cut_on : dict name -> frequency (Hz) of waves cutting on in the plotted range (see
-    railfem.branches.cut_ons): dotted lines with their names (why a decay rate jumps there).
+    railfem.rail.branches.cut_ons): dotted lines with their names (why a decay rate jumps there).
     Put the model and the sensor direction in the title (``ax.set_title``).
     """
     from matplotlib.lines import Line2D
@@ -218,7 +218,7 @@ def plot_decay_rate(centres, decay_rate, labels=None, *, d_min=None, fails=None,
 
 def mark_cut_ons(ax, cut_on):
     """Mark the cut-on frequencies ``cut_on`` (dict name -> Hz, or a sequence of
-    railfem.branches.CutOn) with dotted lines and '<name> cut-on <f>' along them."""
+    railfem.rail.branches.CutOn) with dotted lines and '<name> cut-on <f>' along them."""
     if not isinstance(cut_on, dict):
         cut_on = [(c.name, c.frequency) if hasattr(c, "frequency") else tuple(c)
                   for c in cut_on]

@@ -86,7 +86,7 @@ def quasi_static(track, load: float, EI: float | None = None) -> QuasiStatic:
     EI defaults to the EN 13674-1 60E1 value (E = 210 GPa, I = 3038.3 cm^4)."""
     from dataclasses import replace
 
-    from ..supports import dynamic_stiffness
+    from ..track.supports import dynamic_stiffness
 
     # static stiffness: pad and ballast in series without their loss factors
     elastic = replace(track.support, eta_p=0.0, eta_b=0.0)

@@ -17,7 +17,7 @@ from railfem import models
 from railfem.measurement import HammerMeasurement, Metadata, Sensor
 from railfem.spec import SupportDeviation
 from railfem.standards import en15461, iec61260
-from railfem.supports import FootDashpot, FractionalZener, RailAbsorber
+from railfem.track.supports import FootDashpot, FractionalZener, RailAbsorber
 
 TRUTH = dict(kp=400e6, eta_p=0.2, kb=60e6, eta_b=1.0, eta_r=0.02)
 MODEL = "timoshenko-discrete"
@@ -184,7 +184,9 @@ def passby_recordings(case: str, seed: int, model=MODEL, speeds=PASSBY_SPEEDS):
     wheels, a known roughness, seeded noise) of the truth track of ``case`` (a track
     effect: effect_spec), as railfem.recording.Recording objects that know nothing of the
     truth."""
-    from railfem import contact, roughness as R, wheels
+    from railfem.wheelrail import contact
+    from railfem.wheelrail import roughness as R
+    from railfem.wheelrail import wheels
     from railfem.simulate import passby as P, signals
     from railfem.simulate.train import default_train
 

@@ -11,11 +11,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from railfem.beams import _as_omega, _waves
-from railfem.mobility import FamilyResponse
-from railfem.supports import uniform_layout
-from railfem.track import foot_springs
-from railfem.waves import FamilyOperators, frozen_tail, join, waves_at
+from railfem.track.beams import _as_omega, _waves
+from railfem.rail.mobility import FamilyResponse
+from railfem.track.supports import uniform_layout
+from railfem.track.wfe import foot_springs
+from railfem.rail.waves import FamilyOperators, frozen_tail, join, waves_at
 
 FAMILY = "symmetric"
 

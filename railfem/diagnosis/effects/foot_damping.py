@@ -1,5 +1,5 @@
 """Extra dissipation at the rail foot / fastening: a viscous dashpot in parallel with the
-pad (railfem.supports.FootDashpot).
+pad (railfem.track.supports.FootDashpot).
 
 Friction and micro-slip between foot, pad and clips dissipate energy that a constant pad
 loss factor does not describe: its loss grows with frequency. Parameter: the loss factor
@@ -7,7 +7,7 @@ it adds to the pad at 1 kHz (a dashpot c = kp eta_1k / (2 pi 1 kHz))."""
 from dataclasses import replace
 
 from railfem.diagnosis.effects import Effect, EffectParameter
-from railfem.supports import FootDashpot
+from railfem.track.supports import FootDashpot
 
 
 def apply(spec, theta, record=None):

@@ -1,5 +1,5 @@
 """Frequency-dependent pad stiffness and damping: a fractional Zener (standard linear
-solid) law for the rail pad (railfem.supports.FractionalZener).
+solid) law for the rail pad (railfem.track.supports.FractionalZener).
 
 Polymer pads stiffen with frequency: the static stiffness kp (what the base model fits as a
 constant) rises to ratio * kp above the transition frequency fc, with a loss peak around
@@ -8,7 +8,7 @@ elastomers) so the law adds two parameters."""
 from dataclasses import replace
 
 from railfem.diagnosis.effects import Effect, EffectParameter
-from railfem.supports import FractionalZener
+from railfem.track.supports import FractionalZener
 
 ALPHA = 0.5
 

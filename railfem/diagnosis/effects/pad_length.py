@@ -3,7 +3,7 @@
 The base model puts each support on the rail at a point. A real pad (about 0.1-0.2 m of
 rail foot) spreads it: the supports become softer towards the rail's short bending waves
 and the pinned-pinned resonance (about 1 kHz at 0.6 m spacing) weakens. Enters the spec as
-TrackSpec.pad_length (one spring row per support spread over the pad, railfem.track); a
+TrackSpec.pad_length (one spring row per support spread over the pad, railfem.track.wfe); a
 kernel parameter, so it is profiled over a small grid (a new kernel per value)."""
 from railfem.diagnosis.effects import Effect, EffectParameter
 

@@ -1,5 +1,5 @@
 """Attachments on the rail: a tuned rail damper, a mass-spring-damper per support
-(railfem.supports.RailAbsorber).
+(railfem.track.supports.RailAbsorber).
 
 Rail dampers add a tuned resonator to each span; around its tuning frequency the decay
 rate rises and the transfers far away drop. Modelled at each support's footprint (in
@@ -8,7 +8,7 @@ against the 0.3 m between the two places; this simplification is stated in every
 from dataclasses import replace
 
 from railfem.diagnosis.effects import Effect, EffectParameter
-from railfem.supports import RailAbsorber
+from railfem.track.supports import RailAbsorber
 
 
 def apply(spec, theta, record=None):

@@ -1,0 +1,5 @@
+"""Jobs behind the command line, one module per command: parameters in, files in a folder.
+
+A job calls library functions and writes what they return (atomically, railfem.atomic);
+jobs never import each other. Shared helpers (progress, slugs) are in ``common``.
+"""

@@ -1,0 +1,403 @@
+"""The job behind ``railfem diagnose``: measured data in, the residual traced to an effect.
+
+DATA is a hammer measurement (dataset folder or TOML descriptor, railfem.io) or a
+decay-rate table (CSV; the SBB Niederwangen columns are recognised) with an optional row
+selection. A table is diagnosed per group of rows (default: per section and date, the
+rails of one group being repeats of each other) and, when the selection spans records at
+different temperatures, once more as a whole campaign (``all``). Each diagnosis writes
+into its folder, every file atomically:
+
+* ``diagnosis.json`` — base model and its residual test, ranked candidates with parameters
+  and scores, the chosen effect(s) with 95 % intervals, the error before and after per
+  quantity and band on fitted and held-out data, the verdict in words;
+* ``report.md`` — the same for a reader, with the figures:
+  ``residual_point.png``, ``residual_map_<sensor>.png``, ``residual_distance.png`` (hammer
+  data), ``residual_tdr.png``, ``candidates.png``, ``before_after_<quantity>.png`` and,
+  after an effect is added, ``residual_map_after_<sensor>.png``;
+* ``run.json`` — the command record (top folder).
+"""
+from __future__ import annotations
+
+import json
+import logging
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..atomic import prepare_output_dir, write_text
+from ..diagnosis import effects as library
+from ..diagnosis import loop
+from ..diagnosis.residual import NEGLIGIBLE_DB
+from ..standards import iec61260
+
+log = logging.getLogger(__name__)
+
+
+def _json(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, np.bool_):
+        return bool(o)
+    return str(o)
+
+
+def groups_of(items, group: str | None):
+    """[(name, [measurement])] for table rows grouped by metadata keys ('section,date')."""
+    keys = [k.strip() for k in (group or "").split(",") if k.strip()]
+    bad = [k for k in keys if k not in ("section", "date", "rail_side")]
+    if bad:
+        raise ValueError(f"--group {group!r}: use section, date and/or rail_side")
+    out: dict = {}
+    for _, m in items:
+        name = "_".join(str(getattr(m.metadata, k) or "na") for k in keys) or "all"
+        out.setdefault(name, []).append(m)
+    return list(out.items())
+
+
+def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
+                 group: str | None = "section,date", spacing: float = 0.6, effects=None,
+                 n_starts: int = 4, workers: int = 1, cache=None, campaign: bool = True,
+                 passby: dict | None = None, command: str = "") -> dict:
+    """Diagnose DATA and write the report(s) to ``out_dir``; returns the run record.
+    DATA: a hammer dataset folder or descriptor, a decay-rate table, or a list of pass-by
+    recordings (``passby``: options of passby_rows)."""
+    from .fit import read_data
+
+    t0 = time.perf_counter()
+    if effects not in (None, "all"):
+        for n in effects:
+            library.get(n)
+    paths = [Path(p) for p in (data if isinstance(data, (list, tuple)) else [data])]
+    recs = [p for p in paths if p.suffix.lower() in RECORDING_SUFFIXES]
+    if recs and len(recs) != len(paths):
+        raise ValueError(f"DATA mixes pass-by recordings ({', '.join(map(str, recs))}) with "
+                         "other data; diagnose them separately")
+    if not recs and len(paths) != 1:
+        raise ValueError(f"{len(paths)} DATA given: several are allowed for pass-by "
+                         "recordings (.npz/.wav) only; give one dataset folder, descriptor "
+                         "or decay-rate table")
+    if recs:
+        kind, items = "passby", passby_rows(recs, **(passby or {}))
+    else:
+        data = paths[0]
+        kind, items = read_data(data, select=select, campaign=True) if not data.is_dir() \
+            and data.suffix.lower() != ".toml" else read_data(data)
+    out = prepare_output_dir(out_dir, "diagnose")
+    jobs = []
+    if kind == "hammer":
+        jobs.append(("", items))
+    elif kind == "passby":
+        jobs.append(("passby", items))
+    else:
+        rows = [(i, m) for i, m in items if m.direction == "z"]
+        if not rows:
+            raise ValueError("the selection holds no vertical decay rates (dir v/z); the "
+                             "track models are vertical")
+        jobs += [(n, ms) for n, ms in groups_of(rows, group)]
+        temps = [m.metadata.temperature_c for _, m in rows]
+        if campaign and len(jobs) > 1 and None not in temps and max(temps) - min(temps) >= 5:
+            jobs.append(("all", [m for _, m in rows]))
+    record = {"command": "diagnose", "argv": command, "data": [str(p) for p in paths]
+              if recs else str(data), "model": model,
+              "kind": kind, "groups": []}
+    opts = dict(model=model, n_starts=n_starts, workers=workers, cache=cache,
+                effects=effects)
+    for name, ms in jobs:
+        sub = out / name if name else out
+        log.info("diagnose: %s (%d record(s))", name or "hammer test", len(ms))
+        d = loop.diagnose(ms, spacing=None if kind == "hammer" else spacing, **opts)
+        files = write_report(sub, d, title=name or Path(paths[0]).name)
+        record["groups"].append({"name": name or "hammer", "records": len(ms),
+                                 "verdict": d.verdict, "statement": d.statement,
+                                 "chosen": d.chosen.name if d.chosen else None,
+                                 "files": files, "seconds": d.seconds})
+    record["runtime_s"] = time.perf_counter() - t0
+    write_text(out / "run.json", json.dumps(record, indent=2, default=_json) + "\n")
+    return record
+
+
+RECORDING_SUFFIXES = (".npz", ".wav")
+
+
+def passby_rows(paths, *, method: str = "energy", channel: str | None = None,
+                speed: float | None = None, axle_spacing: float | None = None,
+                f_low: float = 100.0, f_high: float = 5000.0) -> list:
+    """Pass-by recordings -> one decay-rate record per pass-by (railfem.estimators.passby,
+    ``method`` 'energy' or 'slope'), the sensor location taken from the recordings."""
+    from ..diagnosis.data import check_passby_method, passby_decay_rates
+    from ..estimators.passby import PassbyOptions, passby_decay_rate
+    from ..io.recording import read_rail_recordings
+
+    check_passby_method(method)  # before the estimator runs
+    opts = PassbyOptions(f_low=f_low, f_high=f_high)
+    recordings, where = read_rail_recordings(paths, channel)
+    res = passby_decay_rate(recordings, opts, speed=speed, axle_spacing=axle_spacing)
+    return passby_decay_rates(res, method=method, sensor=where)
+
+
+# ------------------------------------------------------------------ the report
+
+
+def error_table(res, bands) -> list[dict]:
+    """RMS (dB) per part, quantity and band over records and sensors."""
+    acc: dict = {}
+    for row in res.band_table(bands):
+        k = (row["part"], row["quantity"], row["band_hz"])
+        s, n = acc.get(k, (0.0, 0))
+        acc[k] = (s + row["rms_db"] ** 2 * row["n"], n + row["n"])
+    return [{"part": p, "quantity": q, "band_hz": b, "rms_db": float(np.sqrt(s / n))}
+            for (p, q, b), (s, n) in sorted(acc.items())]
+
+
+def _bands(d):
+    f = np.concatenate([r.fit.frequency for r in d.data.records])
+    return iec61260.third_octave_bands(float(f.min()), float(f.max()))
+
+
+def summary(d) -> dict:
+    """diagnosis.json content."""
+    from .. import __version__
+    from ..spec import spec_to_dict
+
+    bands = _bands(d)
+    base = d.base
+    out = {
+        "railfem_version": __version__, "model": d.model,
+        "data": {"description": d.data.description,
+                 "records": [{"name": r.name, "kind": r.kind, "use": list(r.fit.use),
+                              "held_out_positions_m": list(r.held_positions),
+                              "held_out_bands_hz": list(r.held_bands),
+                              "metadata": r.metadata.as_dict()} for r in d.data.records]},
+        "verdict": d.verdict, "statement": d.statement,
+        "base": {"parameters": base.parameters(), "spec": spec_to_dict(base.spec()),
+                 "cost": base.cost, "aicc": base.aicc, "bic": base.bic, "k": base.k,
+                 "n": base.n, "residual_rms_db": {"fit": d.residual_before.rms(part="fit"),
+                                                  "held": d.residual_before.rms(part="held")},
+                 "structure_test": d.structure_before, "scale_db": base.problem.scale},
+        "candidates": d.candidates,
+        "skipped": d.skipped,
+        "chosen": None,
+        "error_before": error_table(d.residual_before, bands),
+        "error_after": None,
+        "rules": {"alpha": loop.ALPHA, "min_held_out_gain": loop.MIN_GAIN,
+                  "delta_bic": loop.DELTA_BIC, "bound_margin": loop.BOUND_MARGIN,
+                  "negligible_structure_db": NEGLIGIBLE_DB,
+                  "text": loop.__doc__.split("4. **Gates**")[1].split("5.")[0].strip()},
+        "library": [library.get(n).describe() for n in library.names()],
+        "seconds": d.seconds,
+    }
+    if d.chosen is not None:
+        c = d.chosen
+        out["chosen"] = {"name": c.name, "parameters": c.parameters(),
+                         "spec": spec_to_dict(c.spec()),
+                         "held_out": d.chosen_row["final_held_out"],
+                         "residual_rms_db": {"fit": d.residual_after.rms(part="fit"),
+                                             "held": d.residual_after.rms(part="held")},
+                         "structure_test": d.structure_after,
+                         "aicc": c.aicc, "bic": c.bic, "k": c.k,
+                         "unfitted_terms": c.analysis.get("unfitted_terms", 0)}
+        out["error_after"] = error_table(d.residual_after, bands)
+    return out
+
+
+def write_report(out_dir, d, *, title: str = "") -> list[str]:
+    """diagnosis.json, report.md and the figures of diagnosis ``d`` in ``out_dir``."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    s = summary(d)
+    files = [str(write_text(out / "diagnosis.json", json.dumps(s, indent=2, default=_json)
+                            + "\n"))]
+    figs = figures(out, d)
+    files += figs
+    files.append(str(write_text(out / "report.md", markdown(s, [Path(f).name for f in figs],
+                                                           title))))
+    return files
+
+
+def _fmt(v, unit=""):
+    if v is None:
+        return "-"
+    if isinstance(v, str):
+        return v
+    return f"{v:.4g}{(' ' + unit) if unit and unit != '-' else ''}"
+
+
+def markdown(s: dict, figs: list[str], title: str) -> str:
+    L = [f"# Diagnosis {title}".rstrip(), "", f"**{s['statement']}**", "",
+         f"Model: `{s['model']}`. Data: {s['data']['description']}.", ""]
+    b = s["base"]
+    L += ["## Calibrated base model", "", "| parameter | value | 95 % interval | identifiable |",
+          "|---|---|---|---|"]
+    for p in b["parameters"]:
+        ci = p.get("ci95") or [None, None]
+        L.append(f"| {p['name']} | {_fmt(p['value'], p.get('unit', ''))} | "
+                 f"[{_fmt(ci[0])}, {_fmt(ci[1])}] | {p.get('identifiable', '-')} |")
+    st = b["structure_test"]
+    L += ["", f"Residual RMS (dB), fitted: {json.dumps(_round(b['residual_rms_db']['fit']))}; "
+          f"held out: {json.dumps(_round(b['residual_rms_db']['held']))}.", "",
+          f"Noise or structure: **{st['verdict']}** (Ljung-Box over frequency p = "
+          f"{st['ljung_box_frequency']['p']:.3g}, over position p = "
+          f"{st['ljung_box_position']['p']:.3g}"
+          + (f", against the repeat scatter p = {st['scatter']['p']:.3g}" if "scatter" in st
+             else "")
+          + f"; white part {st['sigma_white_db']:.2f} dB, structured part "
+          f"{st['structured_rms_db']:.2f} dB).", ""]
+    L += ["## Candidates", "", "Ranked: kept candidates first, then by BIC. Gates "
+          + " ".join(s["rules"]["text"].split()), "",
+          "| rank | candidate | kept | dAICc | dBIC | held-out change | p | plausible | "
+          "parameters |", "|---|---|---|---|---|---|---|---|---|"]
+    for c in s["candidates"]:
+        h = c["held_out"]
+        th = "; ".join(f"{k}={_fmt(v)}" for e in c["theta"].values() for k, v in e.items())
+        L.append(f"| {c['rank']} | {c['name']} | {'yes' if c['kept'] else 'no'} | "
+                 f"{c['delta_aicc']:.1f} | {c['delta_bic']:.1f} | "
+                 f"{-100 * (h.get('reduction') or 0):+.0f} % | {_fmt(h.get('p'))} | "
+                 f"{'yes' if c['plausible'] else c['implausible_why']} | {th} |")
+    if s["skipped"]:
+        L += ["", "Not tried: " + "; ".join(f"{k} ({v})" for k, v in s["skipped"].items())
+              + "."]
+    if s["chosen"]:
+        c = s["chosen"]
+        L += ["", f"## Chosen: {c['name']}", "", "| parameter | value | 95 % interval | "
+              "joint 95 % interval | identifiable |", "|---|---|---|---|---|"]
+        for p in c["parameters"]:
+            ci = p.get("ci95") or [None, None]
+            cj = p.get("ci95_joint")
+            L.append(f"| {p['name']} | {_fmt(p['value'], p.get('unit', ''))} | "
+                     f"[{_fmt(ci[0])}, {_fmt(ci[1])}] | "
+                     + (f"[{_fmt(cj[0])}, {_fmt(cj[1])}]" if cj else "–")
+                     + f" | {p.get('identifiable', '-')} |")
+        L += ["", "The joint interval holds all the effect's parameters at once with 95 % "
+              "confidence (Bonferroni over them); the 95 % interval is each one's own."]
+        sup = [p for p in c["parameters"] if "support_value" in p]
+        if sup:
+            L += ["", "The supports' stiffness (factor x fitted mean; its intervals from the "
+                  "variance of the product, tighter than the factor's: a shift of the mean "
+                  "moves the factors the other way):", "",
+                  "| parameter | stiffness | 95 % interval | joint 95 % interval |",
+                  "|---|---|---|---|"]
+            for p in sup:
+                ci, cj = p["support_ci95"], p["support_ci95_joint"]
+                L.append(f"| {p['name']} | {_fmt(p['support_value'], 'N/m')} | "
+                         f"[{_fmt(ci[0])}, {_fmt(ci[1])}] | [{_fmt(cj[0])}, {_fmt(cj[1])}] |")
+        if c.get("unfitted_terms"):
+            L += ["", f"The intervals include what the scatter of {c['unfitted_terms']} "
+                  "unfitted support factors (the effect's supports outside its window, "
+                  "at the prior's SD; held at the mean in the fit) can do to the estimates."]
+        h = c["held_out"]
+        L += ["", f"Held-out error (mean squared scaled residual) {h['mse_ref']:.3g} -> "
+              f"{h['mse']:.3g} ({100 * h['reduction']:.0f} % lower, paired t = {h['t']:.2f}, "
+              f"p = {h['p']:.2g} (t-test or Wilcoxon, x2), {h['blocks']} blocks).", "",
+              f"Residual RMS (dB) after, fitted: {json.dumps(_round(c['residual_rms_db']['fit']))}; "
+              f"held out: {json.dumps(_round(c['residual_rms_db']['held']))}. Structure test "
+              f"after: **{c['structure_test']['verdict']}** (structured part "
+              f"{c['structure_test']['structured_rms_db']:.2f} dB)."]
+    L += ["", "## Error per quantity and band (RMS dB)", "",
+          "| part | quantity | band (Hz) | before | after |", "|---|---|---|---|---|"]
+    after = {(r["part"], r["quantity"], r["band_hz"]): r["rms_db"]
+             for r in (s["error_after"] or [])}
+    for r in s["error_before"]:
+        a = after.get((r["part"], r["quantity"], r["band_hz"]))
+        L.append(f"| {r['part']} | {r['quantity']} | {r['band_hz']:g} | {r['rms_db']:.2f} | "
+                 f"{'-' if a is None else f'{a:.2f}'} |")
+    L += ["", "## Figures", ""] + [f"![{f}]({f})" for f in figs] + [""]
+    return "\n".join(L)
+
+
+def _round(d):
+    return {k: (None if v is None else round(v, 3)) for k, v in d.items()}
+
+
+def figures(out: Path, d) -> list[str]:
+    from ..plotting import (
+        plot_band_residual, plot_candidate_scores, plot_error_before_after, plot_residual_distance,
+        plot_residual_map, plot_residual_spectrum, save_figure,
+    )
+
+    files = []
+    rb, ra = d.residual_before, d.residual_after
+    for label, res in (("", rb), ("after_", ra)):
+        if res is None:
+            continue
+        for blk in res.select(part="fit", quantity="transfer")[:1]:
+            held = res.select(part="held", quantity="transfer", record=blk.record)
+            pos = blk.positions
+            vals = blk.values
+            if held:
+                pos = np.concatenate([pos, held[0].positions])
+                vals = np.concatenate([vals, held[0].values], axis=2)
+            for o, sensor in enumerate(blk.outputs):
+                ax = plot_residual_map(blk.x, pos, vals[:, o, :],
+                                       title=f"Transfer residual, {sensor}, "
+                                             f"{'with ' + d.chosen.name if label else 'base'}")
+                files.append(str(save_figure(ax, out / f"residual_map_{label}{sensor}.png")))
+    pts = rb.select(part="fit", quantity="point")
+    if pts:
+        b = pts[0]
+        v = b.values[:, :, 0]
+        labels = [f"{s} base" for s in b.outputs]
+        if ra is not None:
+            v = np.column_stack([v, ra.select(part="fit", quantity="point")[0].values[:, :, 0]])
+            labels += [f"{s} with {d.chosen.name}" for s in b.outputs]
+        ax = plot_residual_spectrum(b.x, v, labels)
+        ax.set_title("Point mobility residual")
+        files.append(str(save_figure(ax, out / "residual_point.png")))
+        tr = rb.select(part="fit", quantity="transfer")[0]
+        bands = _bands(d)
+        pick = [c for c in (100, 250, 630, 1600, 4000) if bands.lower.min() <= c <= bands.upper.max()]
+        cols, labs = [], []
+        for c in pick:
+            k = int(np.argmin(np.abs(bands.nominal - c)))
+            m = (tr.x >= bands.lower[k]) & (tr.x < bands.upper[k])
+            with np.errstate(invalid="ignore"):
+                cols.append(np.sqrt(np.nanmean(tr.values[m, 0, :] ** 2, axis=0)) *
+                            np.sign(np.nanmean(tr.values[m, 0, :], axis=0)))
+            labs.append(f"{c:g} Hz")
+        ax = plot_residual_distance(tr.positions, np.column_stack(cols), labs,
+                                    ylabel="Signed band RMS residual (dB)")
+        ax.set_title(f"Transfer residual over distance ({tr.outputs[0]}, base)")
+        files.append(str(save_figure(ax, out / "residual_distance.png")))
+    tdr = rb.select(part="fit", quantity="tdr") + rb.select(part="held", quantity="tdr")
+    if tdr:
+        centres = tdr[0].x
+        cols, labs = [], []
+        for b in tdr:
+            for o, sensor in enumerate(b.outputs):
+                cols.append(b.values[:, o, 0])
+                labs.append(f"{b.record} {sensor} ({b.part})")
+        ax = plot_band_residual(centres, np.column_stack(cols)[:, :12], labs[:12],
+                                ylabel="Measured - model (dB)")
+        ax.set_title("Decay-rate residual, base model")
+        files.append(str(save_figure(ax, out / "residual_tdr.png")))
+    if d.candidates:
+        ax = plot_candidate_scores([c["name"] for c in d.candidates],
+                                   [c["delta_bic"] for c in d.candidates],
+                                   [c["held_out"].get("reduction") or 0.0
+                                    for c in d.candidates],
+                                   [c["kept"] for c in d.candidates])
+        ax.set_title("Candidates: BIC change and held-out error reduction")
+        files.append(str(save_figure(ax, out / "candidates.png")))
+    bands = _bands(d)
+    eb = error_table(rb, bands)
+    ea = error_table(ra, bands) if ra is not None else []
+    for q in sorted({r["quantity"] for r in eb}):
+        import matplotlib.pyplot as plt
+
+        parts = sorted({r["part"] for r in eb if r["quantity"] == q})
+        fig, axes = plt.subplots(len(parts), 1, figsize=(7, 3.2 * len(parts)), squeeze=False)
+        for ax, part in zip(axes[:, 0], parts):
+            bb = {r["band_hz"]: r["rms_db"] for r in eb if r["quantity"] == q
+                  and r["part"] == part}
+            aa = {r["band_hz"]: r["rms_db"] for r in ea if r["quantity"] == q
+                  and r["part"] == part}
+            cs = sorted(bb)
+            plot_error_before_after(cs, [bb[c] for c in cs],
+                                    [aa.get(c, np.nan) for c in cs], ax=ax,
+                                    label=f"({part})")
+            ax.set_title(f"{q}: residual RMS per band, {part} data")
+        fig.tight_layout()
+        files.append(str(save_figure(fig, out / f"before_after_{q}.png")))
+    return files

@@ -1,0 +1,144 @@
+"""Content-keyed store for parameter-free kernels, in memory and on disk.
+
+A kernel (free-rail Green's functions between pad footprints, loads and responses on a
+frequency grid) depends on the rail, the geometry and the grid, never on the support
+parameters. ``content_key`` hashes exactly those inputs (arrays by dtype, shape and bytes),
+so a changed mesh, material, location, position or frequency gives a new key and a stale
+kernel is never used. Kernels are dicts of numpy arrays; on disk one ``.npz`` per key,
+written atomically (``railfem.atomic``).
+
+The disk folder is, in order: the ``directory`` given, ``$RAILFEM_CACHE``,
+``$XDG_CACHE_HOME/railfem``, ``~/.cache/railfem``. ``KernelStore(directory=False)`` keeps
+kernels in memory only.
+"""
+from __future__ import annotations
+
+import hashlib
+import io
+import logging
+import os
+from collections import OrderedDict
+from pathlib import Path
+
+import numpy as np
+
+from ..atomic import write_bytes_atomic
+
+log = logging.getLogger(__name__)
+
+#: Bumped whenever a kernel's content or layout changes: old cache files are then ignored.
+KERNEL_FORMAT = 3
+
+
+def default_directory() -> Path:
+    """$RAILFEM_CACHE, else $XDG_CACHE_HOME/railfem, else ~/.cache/railfem."""
+    env = os.environ.get("RAILFEM_CACHE")
+    if env:
+        return Path(env)
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg) if xdg else Path.home() / ".cache") / "railfem"
+
+
+def _feed(h, obj) -> None:
+    if isinstance(obj, np.ndarray) or isinstance(obj, (np.floating, np.integer)):
+        a = np.ascontiguousarray(obj)
+        h.update(f"A{a.dtype.str}{a.shape}".encode())
+        h.update(a.tobytes())
+    elif isinstance(obj, (tuple, list)):
+        h.update(f"T{len(obj)}(".encode())
+        for x in obj:
+            _feed(h, x)
+        h.update(b")")
+    elif isinstance(obj, dict):
+        _feed(h, sorted(obj.items()))
+    elif obj is None or isinstance(obj, (bool, int, float, complex, str)):
+        h.update(f"{type(obj).__name__}:{obj!r};".encode())
+    else:
+        raise TypeError(f"cannot hash {type(obj).__name__} into a kernel key")
+
+
+def content_key(kind: str, *parts) -> str:
+    """Hex SHA-256 of ``kind``, KERNEL_FORMAT and the parts (arrays, numbers, strings,
+    nested tuples/lists/dicts)."""
+    h = hashlib.sha256()
+    _feed(h, (kind, KERNEL_FORMAT, parts))
+    return f"{kind}-{h.hexdigest()[:40]}"
+
+
+class KernelStore:
+    """Kernels by key: an in-memory LRU of ``max_items`` and an optional disk folder.
+
+    directory: a folder, None for ``default_directory()``, or False for memory only.
+    """
+
+    def __init__(self, directory=None, max_items: int = 8):
+        self.directory = None if directory is False else Path(directory or default_directory())
+        self.max_items = int(max_items)
+        self._memory: OrderedDict[str, dict] = OrderedDict()
+
+    def _path(self, key: str) -> Path:
+        return self.directory / f"{key}.npz"
+
+    def get(self, key: str) -> dict | None:
+        if key in self._memory:
+            self._memory.move_to_end(key)
+            return self._memory[key]
+        if self.directory is None:
+            return None
+        path = self._path(key)
+        if not path.exists():
+            return None
+        try:
+            with np.load(path, allow_pickle=False) as z:
+                arrays = {k: z[k] for k in z.files}
+        except (OSError, ValueError, EOFError) as exc:  # a damaged file is recomputed
+            log.warning("ignoring unreadable kernel cache file %s (%s)", path, exc)
+            return None
+        log.debug("kernel %s read from %s", key, path)
+        self._remember(key, arrays)
+        return arrays
+
+    def put(self, key: str, arrays: dict) -> None:
+        self._remember(key, arrays)
+        if self.directory is None:
+            return
+        buf = io.BytesIO()
+        np.savez(buf, **arrays)
+        try:
+            write_bytes_atomic(self._path(key), buf.getvalue())
+        except OSError as exc:  # a read-only cache folder costs speed, not results
+            log.warning("cannot write kernel cache %s (%s); continuing without", self.directory,
+                        exc)
+
+    def _remember(self, key: str, arrays: dict) -> None:
+        self._memory[key] = arrays
+        self._memory.move_to_end(key)
+        while len(self._memory) > self.max_items:
+            self._memory.popitem(last=False)
+
+    def cached(self, key: str, compute) -> dict:
+        """The kernel stored under ``key``, or ``compute()`` stored and returned."""
+        hit = self.get(key)
+        if hit is not None:
+            return hit
+        arrays = compute()
+        self.put(key, arrays)
+        return arrays
+
+
+def resolve(cache) -> KernelStore:
+    """A KernelStore from a door's ``cache`` argument: a KernelStore; a folder (one shared
+    store per folder); True or None for the default folder; False for the shared memory-only
+    store (nothing read from or written to disk)."""
+    if isinstance(cache, KernelStore):
+        return cache
+    if cache is False:
+        return _MEMORY_ONLY
+    directory = default_directory() if cache is None or cache is True else Path(cache)
+    if directory not in _STORES:
+        _STORES[directory] = KernelStore(directory=directory)
+    return _STORES[directory]
+
+
+_STORES: dict[Path, KernelStore] = {}  # one shared store (and memory) per folder
+_MEMORY_ONLY = KernelStore(directory=False)
