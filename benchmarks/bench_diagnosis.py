@@ -4,7 +4,7 @@ cores).
     python benchmarks/bench_diagnosis.py                 # practice_site_b, both models
     python benchmarks/bench_diagnosis.py --models timoshenko-discrete
     python benchmarks/bench_diagnosis.py --f-high 4000 \
-        --out benchmarks/results_diagnosis_4k.txt        # where practice_site_b keeps an effect
+        --out benchmarks/results/results_diagnosis_4k.txt        # where practice_site_b keeps an effect
 
 For each model: railfem.diagnosis.diagnose on the dataset (29 EN 15461 positions, head and
 foot sensors, 69 frequencies at 1/9 octave, 50 Hz - 8 kHz), the whole effect library that
@@ -12,7 +12,7 @@ applies, the base fit's multi-start in ``--workers`` processes, a memory-only ke
 (cold: every kernel is computed in the run). Reported: the time of each stage (base fit
 with the rail-loss profile, single candidates, pairs, final refit), the number of
 candidates, and the ratio of each model's total to the timoshenko-discrete total measured
-in the same run. The table is printed and written to benchmarks/results_diagnosis.txt.
+in the same run. The table is printed and written to benchmarks/results/results_diagnosis.txt.
 """
 from __future__ import annotations
 
@@ -34,7 +34,7 @@ def parse_args(argv=None):
     p.add_argument("--f-high", type=float, default=None,
                    help="diagnose up to this frequency (Hz; default the whole dataset)")
     p.add_argument("--out", type=Path,
-                   default=Path(__file__).resolve().parent / "results_diagnosis.txt")
+                   default=Path(__file__).resolve().parent / "results" / "results_diagnosis.txt")
     return p.parse_args(argv)
 
 

@@ -20,7 +20,7 @@ head (patch average) and at the rail-foot sensor, at the 29 EN 15461 hammer posi
 
 The steps are those of railfem.rail.mobility.free_receptance, timed one by one. The BLAS thread
 count is set before numpy is imported (--threads, default 1; see bench_waveguide.py). The
-table is printed and written to benchmarks/results_mobility.txt (--out).
+table is printed and written to benchmarks/results/results_mobility.txt (--out).
 """
 from __future__ import annotations
 
@@ -44,7 +44,7 @@ def parse_args(argv=None):
     p.add_argument("--n-waves", type=int, default=40, help="shift-invert waves (default 40)")
     p.add_argument("--threads", type=int, default=1, help="BLAS threads (default 1)")
     p.add_argument("--out", type=Path,
-                   default=Path(__file__).resolve().parent / "results_mobility.txt")
+                   default=Path(__file__).resolve().parent / "results" / "results_mobility.txt")
     return p.parse_args(argv)
 
 

@@ -1,7 +1,7 @@
 """Benchmark of the pass-by: 24 wheels, 0.1 m steps over +-60 m, 1/9-octave 100 Hz - 5 kHz,
 rigid wheels, on the WFE discrete site track; and the flexible-wheel mobility 0 - 10 kHz.
 
-    python benchmarks/bench_passby.py [--threads 1] [--out benchmarks/results_passby.txt]
+    python benchmarks/bench_passby.py [--threads 1] [--out benchmarks/results/results_passby.txt]
 
 Rows: the track kernel (rail tables: 6 force positions in a span x responses at 0.1 m over
 +-max_distance, head and foot, by railfem.simulate.passby.rail_tables), then the pass-by
@@ -22,7 +22,7 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--threads", type=int, default=1, help="BLAS threads (default 1)")
     p.add_argument("--max-distance", type=float, default=30.0, help="rail tables reach (m)")
-    p.add_argument("--out", type=Path, default=Path(__file__).with_name("results_passby.txt"))
+    p.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "results" / "results_passby.txt")
     args = p.parse_args(argv)
     limit_threads(args.threads)
     import numpy as np

@@ -35,7 +35,7 @@ Table 3, the formulations (--sizes, --full), per mesh (60E1, shipped meshes when
 
 The BLAS thread count is set before numpy is imported (--threads, default 1: on a loaded
 2-core machine OpenBLAS threads oversubscribe and a dense eig can run 10-50x slower).
-The table is printed and written to benchmarks/results_waveguide.txt (--out).
+The table is printed and written to benchmarks/results/results_waveguide.txt (--out).
 """
 from __future__ import annotations
 
@@ -67,7 +67,7 @@ def parse_args(argv=None):
                    help="frequency (Hz) timed for (a) (one solve: it is slow)")
     p.add_argument("--threads", type=int, default=1, help="BLAS threads (default 1)")
     p.add_argument("--out", type=Path,
-                   default=Path(__file__).resolve().parent / "results_waveguide.txt")
+                   default=Path(__file__).resolve().parent / "results" / "results_waveguide.txt")
     return p.parse_args(argv)
 
 

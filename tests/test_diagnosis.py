@@ -1,6 +1,6 @@
 """railfem.diagnosis in the default suite: the effect library's contract, the residual's
 noise-or-structure test on synthetic sequences, the noise-floor operator against Monte
-Carlo, a small blind diagnosis (generator: tests/blind/generators.py, the door with an
+Carlo, a small blind diagnosis (generator: benchmarks/blind/generators.py, the door with an
 effect switched on; the diagnosis is not told which), named errors and the CLI.
 
 The full blind study (every effect, 10 seeds, realistic size) is tests/test_diagnosis_blind.py
@@ -17,7 +17,7 @@ from railfem.diagnosis import diagnose, effects, prepare
 from railfem.diagnosis import residual as R
 from railfem.diagnosis.effects import noise_floor, sensor_resonance
 from railfem.diagnosis.evaluate import Evaluator
-from tests.blind import generators as g
+from benchmarks.blind import generators as g
 
 SMALL_F = g.frequencies(low=50.0, high=4000.0)[::2]  # 1/4.5-octave: a cheap grid
 

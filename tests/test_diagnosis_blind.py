@@ -3,8 +3,8 @@ back at a realistic size (29 EN 15461 positions, 1/9-octave 50 Hz - 5 kHz, head 
 timoshenko-discrete, 5 % noise), 10 seeds each; data with no effect; data with an effect
 outside the library (a softer rail), with the default search and with every effect
 screened (effects='all': random_support too, which the default leaves out; the case
-random_support itself is always diagnosed that way). Generator: tests/blind/generators.py (the door);
-scoring: tests/blind/study.py.
+random_support itself is always diagnosed that way). Generator: benchmarks/blind/generators.py (the door);
+scoring: benchmarks/blind/study.py.
 
 Criteria (issue 12): the right mechanism ranked first in >= 9/10; its parameters all
 inside their reported joint 95 % intervals (Bonferroni over the effect's parameters) in
@@ -13,8 +13,8 @@ claimed on clean data in >= 9/10; an effect outside the library: 'unexplained' i
 and no false claim ('explained') in any."""
 import pytest
 
-from tests.blind import generators as g
-from tests.blind.study import OUTSIDE, run_case, table
+from benchmarks.blind import generators as g
+from benchmarks.blind.study import OUTSIDE, run_case, table
 
 SEEDS = range(10)
 IN_LIBRARY = [c for c in g.CASES if c not in ("none",) + OUTSIDE]

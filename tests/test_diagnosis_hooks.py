@@ -131,7 +131,7 @@ def test_deviating_supports_woodbury_update_against_the_door():
     random) against the door's direct solve of the track with them (301 supports at absolute
     positions). Near the sensor the two differ only by where the supported stretch ends:
     the door's own uniform paths (re-centred vs absolute) differ by ~1e-4 there."""
-    import tests.blind.generators as g
+    import benchmarks.blind.generators as g
 
     f = np.geomspace(60, 3000, 10)
     data = prepare(g.dataset("none", 0, f=f))

@@ -1,8 +1,8 @@
-"""The blind study: for a case of tests/blind/generators.CASES and a seed, generate the
+"""The blind study: for a case of benchmarks/blind/generators.CASES and a seed, generate the
 data, diagnose them without telling the diagnosis the case, and score the outcome.
 
-    python -m tests.blind.study OUT.jsonl CASE[,CASE] SEEDS [all]   (e.g. 0-9)
-    python -m tests.blind.study --table OUT.jsonl                   (the markdown table)
+    python -m benchmarks.blind.study OUT.jsonl CASE[,CASE] SEEDS [all]   (e.g. 0-9)
+    python -m benchmarks.blind.study --table OUT.jsonl                   (the markdown table)
 
 (``all``: screen every effect of the library, random_support too, which the default
 search leaves out for its cost; the case random_support is always run that way.)
@@ -17,7 +17,7 @@ import time
 
 import numpy as np
 
-from tests.blind import generators as g
+from benchmarks.blind import generators as g
 
 OUTSIDE = ("rail_stiffness",)  # effects the library does not have
 ALL_EFFECTS = ("random_support",)  # cases only the whole library (effects='all') can find
@@ -144,7 +144,7 @@ def _seeds(text: str):
 if __name__ == "__main__":
     import logging
 
-    if sys.argv[1] == "--table":  # python -m tests.blind.study --table RESULTS.jsonl
+    if sys.argv[1] == "--table":  # python -m benchmarks.blind.study --table RESULTS.jsonl
         with open(sys.argv[2], encoding="utf-8") as fh:
             print(markdown([json.loads(line) for line in fh]))
         sys.exit(0)
