@@ -47,7 +47,10 @@ def _closure(declared: set[str]) -> set[str]:
 
 def test_imports_are_declared_dependencies():
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
-    declared = {_requirement_name(r) for r in project["dependencies"]}
+    # the core's dependencies and the extras' (the libraries imported inside functions)
+    extras = [r for name, reqs in project["optional-dependencies"].items() if name != "test"
+              for r in reqs if not r.startswith("railfem")]
+    declared = {_requirement_name(r) for r in project["dependencies"] + extras}
     provided = _closure(declared)
     owners = metadata.packages_distributions()
     missing = {}
@@ -57,3 +60,19 @@ def test_imports_are_declared_dependencies():
         if not dists & provided:
             missing[module] = sorted(dists)
     assert not missing, f"imported but not declared in pyproject.toml: {missing}"
+
+
+def test_core_dependencies_are_few_and_the_heavy_ones_are_extras():
+    """numpy, scipy, scikit-fem and threadpoolctl are what the core needs; the libraries
+    imported inside the functions that use them are optional extras that 'all' collects and
+    the test extra (what scripts/setup.sh installs) includes."""
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    core = {_requirement_name(r) for r in project["dependencies"]}
+    assert core == {"numpy", "scipy", "scikit-fem", "threadpoolctl"}
+    extras = project["optional-dependencies"]
+    heavy = {_requirement_name(r) for name, reqs in extras.items() if name not in ("all", "test")
+             for r in reqs}
+    assert {"gmsh", "meshio", "matplotlib", "pyvista", "pyuff", "dask"} <= heavy
+    assert "railfem[all]" in extras["test"]
+    assert set(extras["all"][0].split("[")[1].rstrip("]").split(",")) == (
+        set(extras) - {"all", "test"})
