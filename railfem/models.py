@@ -196,16 +196,9 @@ def _channel_key(rail: Rail, force: str, outputs) -> tuple:
 def beam_section(spec_rail: RailSpec) -> beams.BeamSection:
     """Timoshenko vertical-bending section: A, I, kappa from the mesh (railfem.rail.section) or
     the nominal 60E1 catalogue values, with the rail's material (METHOD.md section 3)."""
-    m = spec_rail.material()
     if spec_rail.beam_constants == "catalogue":
-        nominal = beams.BeamSection.uic60(eta=m.loss_factor)
-        return beams.BeamSection(E=m.E, G=m.G, area=nominal.area, I=nominal.I,
-                                 kappa=nominal.kappa, rho=m.rho, eta=m.loss_factor)
-    from .rail import section
-
-    sc = section.section_constants(rail_mesh(spec_rail))
-    return beams.BeamSection(E=m.E, G=m.G, area=sc.area, I=sc.I_y, kappa=sc.kappa_z,
-                             rho=m.rho, eta=m.loss_factor)
+        return beams.BeamSection.catalogue(spec_rail.material())
+    return beams.BeamSection.from_mesh(rail_mesh(spec_rail), spec_rail.material())
 
 
 # ----------------------------------------------------------------------------- the door

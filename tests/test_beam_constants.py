@@ -24,10 +24,27 @@ def diff():
 
 
 def test_catalogue_section_is_EN13674():
-    bs = beams.catalogue_section()
+    bs = beams.BeamSection.catalogue()
     assert bs.area == EN13674_60E1["area"] and bs.I == EN13674_60E1["I_y"]
-    assert bs.kappa == 0.4 and bs.E == Material.steel().E
-    assert beams.catalogue_section(Material.steel(0.02), kappa=0.39).eta == 0.02
+    assert bs.kappa == 0.4 and bs.E == 2.1e11 and bs.rho == 7850.0 and bs.eta == 0.0
+    assert bs.G == pytest.approx(2.1e11 / 2.6, rel=1e-15)
+    assert beams.BeamSection.catalogue(Material.steel(0.02), kappa=0.39).eta == 0.02
+    lateral = beams.BeamSection.catalogue(direction="lateral", kappa=0.5)
+    assert lateral.I == EN13674_60E1["I_z"] and lateral.kappa == 0.5
+    with pytest.raises(ValueError, match="kappa"):
+        beams.BeamSection.catalogue(direction="lateral")
+    with pytest.raises(ValueError, match="direction"):
+        beams.BeamSection.catalogue(direction="torsion")
+
+
+def test_mesh_section_takes_the_mesh_constants_of_each_direction():
+    mesh = meshing.get_mesh("60E1", 0.01)
+    sc = section.section_constants(mesh)
+    v = beams.BeamSection.from_mesh(mesh, Material.steel(0.03))
+    lat = beams.BeamSection.from_mesh(mesh, direction="lateral")
+    assert (v.area, v.I, v.kappa, v.eta) == (sc.area, sc.I_y, sc.kappa_z, 0.03)
+    assert (lat.area, lat.I, lat.kappa, lat.eta) == (sc.area, sc.I_z, sc.kappa_y, 0.0)
+    assert lat.I == pytest.approx(EN13674_60E1["I_z"], rel=5e-3)
 
 
 def test_mesh_section_constants_agree_with_the_catalogue(diff):
@@ -51,8 +68,8 @@ def test_difference_is_the_shear_coefficient(diff):
     agree to 0.05 %: the remaining A, I differences of the curved mesh do not matter; the
     0.34 % shift comes from kappa 0.393 vs 0.4 alone."""
     tp_spacing = 0.6
-    cat_k = beams.catalogue_section(Material.steel(), kappa=diff.mesh.kappa)
-    f_mesh = beams.pinned_pinned_frequency(section.beam_section_from_mesh(
+    cat_k = beams.BeamSection.catalogue(Material.steel(), kappa=diff.mesh.kappa)
+    f_mesh = beams.pinned_pinned_frequency(beams.BeamSection.from_mesh(
         meshing.get_mesh("60E1", 0.01)), tp_spacing)
     assert beams.pinned_pinned_frequency(cat_k, tp_spacing) == pytest.approx(f_mesh, rel=5e-4)
     shift = diff.pinned_pinned_hz["mesh"] / diff.pinned_pinned_hz["catalogue"] - 1

@@ -15,7 +15,7 @@ TWO_PI = 2 * np.pi
 
 @pytest.fixture
 def rail():
-    return bm.BeamSection.uic60(eta=0.02)
+    return bm.BeamSection.catalogue(Material.steel(0.02))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -79,7 +79,7 @@ def test_section_construction_and_validation():
     assert sec.eta == 0.01
     assert sec.EI == pytest.approx(2.1e11 * 3038.3e-8 * (1 + 0.01j))
     assert sec.mass_per_length == pytest.approx(60.21, rel=1e-3)  # EN 13674-1: 60.21 kg/m
-    assert bm.BeamSection.uic60().kappa == 0.4
+    assert bm.BeamSection.catalogue().kappa == 0.4
     with pytest.raises(ValueError, match="kappa"):
         dataclasses.replace(sec, kappa=0.0)
     with pytest.raises(ValueError, match="eta"):
@@ -118,7 +118,7 @@ def test_wavenumbers_solve_dispersion_relation(rail):
 
 
 def test_undamped_wavenumbers_and_cutoff():
-    sec = bm.BeamSection.uic60(eta=0.0)
+    sec = bm.BeamSection.catalogue(Material.steel(0.0))
     w_c = math.sqrt(sec.kGA.real / sec.rotary_inertia_per_length)  # second-spectrum cut-off
     below, above = bm.timoshenko_wavenumbers(sec, [0.9 * w_c, 1.1 * w_c])
     assert below[0].real > 0 and below[0].imag == 0  # propagating, Re k > 0
@@ -157,7 +157,7 @@ def test_timoshenko_tends_to_euler_bernoulli_at_low_frequency(rail):
 
 @pytest.mark.parametrize("f", [20.0, 300.0, 2000.0, 6000.0])
 def test_free_beam_against_fourier_inversion(f):
-    sec = bm.BeamSection.uic60(eta=0.05)
+    sec = bm.BeamSection.catalogue(Material.steel(0.05))
     w = TWO_PI * f
     for x in (0.0, 0.3, 1.5):
         ref = fourier_receptance(sec, w, x)
@@ -181,7 +181,7 @@ def test_free_beam_symmetry_and_validation(rail):
 
 
 def test_static_winkler_limits():
-    sec = bm.BeamSection.uic60(eta=0.0)
+    sec = bm.BeamSection.catalogue(Material.steel(0.0))
     p = sp.SupportParameters(kp=300e6, kb=90e6)
     s = 300e6 * 90e6 / 390e6 / 0.6
     EI = sec.E * sec.I
@@ -203,7 +203,7 @@ def test_static_winkler_limits():
 
 def test_euler_bernoulli_on_continuous_support_closed_form():
     pr = sp.preset("medium")
-    eb = bm.BeamSection.uic60(eta=pr.eta_r).euler_bernoulli()
+    eb = bm.BeamSection.catalogue(Material.steel(pr.eta_r)).euler_bernoulli()
     w = TWO_PI * np.array([10.0, 150.0, 400.0, 1500.0])
     x = np.array([0.0, 0.6, 2.4])
     got = bm.continuous_track_receptance(eb, pr.support, 0.6, w, x)
@@ -216,7 +216,7 @@ def test_euler_bernoulli_on_continuous_support_closed_form():
 @pytest.mark.parametrize("f", [0.0, 20.0, 300.0, 2000.0, 6000.0])
 def test_continuous_track_against_fourier_inversion(f):
     pr = sp.preset("medium")
-    sec = bm.BeamSection.uic60(eta=pr.eta_r)
+    sec = bm.BeamSection.catalogue(Material.steel(pr.eta_r))
     w = TWO_PI * f
     s = complex(sp.continuous_stiffness(pr.support, w, 0.6))
     for x in (0.0, 0.3, 1.5):
@@ -311,7 +311,7 @@ def test_pad_rows(rail):
 
 def test_small_spacing_tends_to_continuous_support():
     pr = sp.preset("medium")
-    sec = bm.BeamSection.uic60(eta=pr.eta_r)
+    sec = bm.BeamSection.catalogue(Material.steel(pr.eta_r))
     w = TWO_PI * np.array([30.0, 100.0, 300.0])
     x = np.array([0.0, 0.5, 1.0])
     errors = []
@@ -337,7 +337,7 @@ def pinned_pinned_reference(sec, d):
 
 
 def test_pinned_pinned_frequency_helper():
-    sec = bm.BeamSection.uic60(eta=0.01)
+    sec = bm.BeamSection.catalogue(Material.steel(0.01))
     for d in (0.3, 0.6, 0.65):
         assert bm.pinned_pinned_frequency(sec, d) == pytest.approx(
             pinned_pinned_reference(sec, d), rel=1e-10)
@@ -348,7 +348,7 @@ def test_pinned_pinned_frequency_helper():
 
 def test_pinned_pinned_resonance_on_stiff_supports():
     d = 0.6
-    sec = bm.BeamSection.uic60(eta=0.005)
+    sec = bm.BeamSection.catalogue(Material.steel(0.005))
     stiff = sp.SupportParameters(kp=1e12, kb=math.inf)
     lay = sp.uniform_layout(stiff, spacing=d, n=131)
     f_pp = pinned_pinned_reference(sec, d)
@@ -365,7 +365,7 @@ def test_pinned_pinned_resonance_on_stiff_supports():
 @pytest.mark.parametrize("name", ["stiff", "medium", "soft", "site"])
 def test_truncation_131_vs_301_supports(name):
     pr = sp.preset(name)
-    sec = bm.BeamSection.uic60(eta=pr.eta_r)
+    sec = bm.BeamSection.catalogue(Material.steel(pr.eta_r))
     w = TWO_PI * np.geomspace(100, 5000, 40)
     x = [0.0, 0.3]  # on a support and at mid-span
     a131 = bm.discrete_track_receptance(sec, sp.uniform_layout(pr.support, n=131), w, x, x)

@@ -115,7 +115,7 @@ def test_beam_discrete_kernel_coupling_equals_direct_solve():
     accurate to 3e-10 only (measured against the unscaled solve), so that case is held to
     1e-9."""
     rng = np.random.default_rng(3)
-    bs = beams.BeamSection.uic60(eta=0.02)
+    bs = beams.BeamSection.catalogue(Material.steel(0.02))
     lay = supports.uniform_layout(random_params(rng), 0.6, 41)
     for j in range(len(lay)):
         lay = supports.with_support(lay, j, random_params(rng))

@@ -11,6 +11,9 @@
   tau . n = 0 on the boundary: the Saint-Venant flexure solution for nu = 0 (Cowper 1966,
   J. Appl. Mech. 33, eq. for nu -> 0), which gives 5/6 for a rectangle; Poisson's ratio
   raises it slightly (Cowper: 10(1+nu)/(12+11nu) = 0.850 at nu = 0.3 for a rectangle).
+
+The Timoshenko section built from these constants is
+``railfem.track.beams.BeamSection.from_mesh`` (this module knows nothing of the beams).
 """
 from __future__ import annotations
 
@@ -97,23 +100,6 @@ def section_constants(mesh: SectionMesh) -> SectionConstants:
     return SectionConstants(area=A, centroid_z=cz, I_y=Iy, I_z=Iz, J=torsion_constant(mesh),
                             kappa_z=shear_coefficient(mesh, "z"),
                             kappa_y=shear_coefficient(mesh, "y"))
-
-
-def beam_section_from_mesh(mesh: SectionMesh, material=None, direction: str = "vertical"):
-    """Timoshenko ``BeamSection`` with the constants of the mesh: area, I and kappa of
-    vertical (I_y, kappa_z) or lateral (I_z, kappa_y) bending; material (default steel) gives
-    E, G, rho and the loss factor. The catalogue counterpart is
-    ``railfem.track.beams.catalogue_section``."""
-    from ..track.beams import BeamSection
-    from ..materials import Material
-
-    if direction not in ("vertical", "lateral"):
-        raise ValueError(f"direction must be 'vertical' or 'lateral', got {direction!r}")
-    A, _, Iy, Iz = moments(mesh)
-    vertical = direction == "vertical"
-    return BeamSection.from_material(material or Material.steel(), area=A,
-                                     I=Iy if vertical else Iz,
-                                     kappa=shear_coefficient(mesh, "z" if vertical else "y"))
 
 
 def warping(mesh: SectionMesh) -> dict:

@@ -1,8 +1,8 @@
 """Timoshenko track with catalogue or mesh section constants: how much the choice matters.
 
 The Timoshenko reference tracks (``railfem.track.beams``) need A, I and kappa. Two sources:
-EN 13674-1 catalogue values (``beams.catalogue_section``, kappa = 0.4 from METHOD.md) or the
-constants of the section mesh (``section.beam_section_from_mesh``: area and I by quadrature
+EN 13674-1 catalogue values (``BeamSection.catalogue``, kappa = 0.4 from METHOD.md) or the
+constants of the section mesh (``BeamSection.from_mesh``: area and I by quadrature
 on the curved mesh, kappa from the flexural shear problem). :func:`constants_difference`
 computes the discrete-track point mobility with both and reports the level difference per
 one-third-octave band.
@@ -15,10 +15,10 @@ import numpy as np
 
 from ..track import beams
 from ..rail import meshing
-from ..rail import section
 from ..materials import Material
 from ..standards import iec61260
-from ..track.supports import preset as get_preset, uniform_layout
+from ..spec import preset as get_preset
+from ..track.supports import uniform_layout
 
 #: Offset (m) of the point-mobility force from the sensor, as in the track job.
 POINT_OFFSET = 0.02
@@ -48,9 +48,9 @@ def constants_difference(preset: str = "site", mesh: meshing.SectionMesh | None 
     curved 60E1 at 10 mm), band RMS per one-third-octave band and their difference."""
     tp = get_preset(preset)
     mesh = mesh or meshing.get_mesh("60E1", meshing.DEFAULT_H)
-    material = Material.steel(tp.eta_r)
-    secs = {"catalogue": beams.catalogue_section(material),
-            "mesh": section.beam_section_from_mesh(mesh, material)}
+    material = Material.steel(tp.rail.eta)
+    secs = {"catalogue": beams.BeamSection.catalogue(material),
+            "mesh": beams.BeamSection.from_mesh(mesh, material)}
     f = iec61260.ninth_octave_grid(f_low, f_high)
     bands = iec61260.third_octave_bands(f_low, f_high)
     layout = uniform_layout(tp.support, tp.spacing, n_supports)

@@ -71,7 +71,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .coupling import DiscreteKernel, couple_discrete, unique_separations
-from ..rail.mobility import residue_sum
+from ..rail import section as rail_section
+from ..rail.greens import residue_sum
 from .supports import SupportLayout, SupportParameters, continuous_stiffness
 
 log = logging.getLogger(__name__)
@@ -82,21 +83,6 @@ UIC60_KAPPA_VERTICAL = 0.4
 UIC60_AREA = 76.70e-4  # m^2
 UIC60_I_VERTICAL = 3038.3e-8  # m^4, bending in the vertical plane (about the horizontal axis)
 UIC60_I_LATERAL = 512.3e-8  # m^4, bending in the lateral plane
-
-
-def catalogue_section(material=None, *, kappa: float = UIC60_KAPPA_VERTICAL) -> "BeamSection":
-    """Timoshenko section of 60E1 in vertical bending with the EN 13674-1 catalogue
-    constants: area 76.70 cm^2, I = 3038.3 cm^4 (UIC60_AREA, UIC60_I_VERTICAL).
-
-    material: E, nu, rho and loss factor (default ``Material.steel()``). kappa: the
-    catalogue gives no shear coefficient; the default 0.4 is METHOD.md's value for UIC60
-    (the curved 60E1 mesh gives 0.393, ``railfem.rail.section.shear_coefficient``). The mesh
-    counterpart is ``railfem.rail.section.beam_section_from_mesh``.
-    """
-    from ..materials import Material
-
-    return BeamSection.from_material(material or Material.steel(), area=UIC60_AREA,
-                                     I=UIC60_I_VERTICAL, kappa=kappa)
 
 
 def shear_coefficient(nu: float, shape: str = "rectangle") -> float:
@@ -171,13 +157,19 @@ class BeamSection:
                    rho=material.rho, eta=eta)
 
     @classmethod
-    def uic60(cls, *, eta: float = 0.0, direction: str = "vertical",
-              kappa: float | None = None) -> "BeamSection":
-        """Nominal EN 13674-1 60E1 steel rail (E = 210 GPa, nu = 0.3, rho = 7850 kg/m^3).
+    def catalogue(cls, material=None, *, direction: str = "vertical",
+                  kappa: float | None = None) -> "BeamSection":
+        """60E1 with the EN 13674-1 catalogue constants: area 76.70 cm^2, I = 3038.3 cm^4
+        in vertical bending or 512.3 cm^4 in lateral bending (UIC60_AREA, UIC60_I_VERTICAL,
+        UIC60_I_LATERAL).
 
-        For the WFE comparison take area and I from the mesh instead (METHOD.md section 3).
-        ``kappa`` defaults to 0.4 for vertical bending (METHOD.md); for lateral bending give it.
+        material: E, nu, rho and loss factor (default ``Material.steel()``: E = 210 GPa,
+        nu = 0.3, rho = 7850 kg/m^3, no loss). kappa: the catalogue gives no shear
+        coefficient; vertical bending defaults to METHOD.md's 0.4 for UIC60 (the curved
+        60E1 mesh gives 0.393, ``BeamSection.from_mesh``); for lateral bending give it.
         """
+        from ..materials import Material
+
         if direction not in ("vertical", "lateral"):
             raise ValueError(f"direction must be 'vertical' or 'lateral', got {direction!r}")
         if kappa is None:
@@ -185,9 +177,24 @@ class BeamSection:
                 raise ValueError("give kappa for lateral bending (no default is documented)")
             kappa = UIC60_KAPPA_VERTICAL
         I = UIC60_I_VERTICAL if direction == "vertical" else UIC60_I_LATERAL
-        E, nu = 2.1e11, 0.3
-        return cls(E=E, G=E / (2 * (1 + nu)), area=UIC60_AREA, I=I, kappa=kappa, rho=7850.0,
-                   eta=eta)
+        return cls.from_material(material or Material.steel(), area=UIC60_AREA, I=I,
+                                 kappa=kappa)
+
+    @classmethod
+    def from_mesh(cls, mesh, material=None, *, direction: str = "vertical") -> "BeamSection":
+        """The constants of a section mesh (railfem.rail.section): area and I by quadrature
+        on the (curved) mesh, kappa from the flexural shear problem, for vertical (I_y,
+        kappa_z) or lateral (I_z, kappa_y) bending. material: E, nu, rho and loss factor
+        (default ``Material.steel()``)."""
+        from ..materials import Material
+
+        if direction not in ("vertical", "lateral"):
+            raise ValueError(f"direction must be 'vertical' or 'lateral', got {direction!r}")
+        vertical = direction == "vertical"
+        A, _, Iy, Iz = rail_section.moments(mesh)
+        return cls.from_material(material or Material.steel(), area=A, I=Iy if vertical else Iz,
+                                 kappa=rail_section.shear_coefficient(mesh, "z" if vertical
+                                                                      else "y"))
 
     def euler_bernoulli(self) -> "BeamSection":
         """The same section without shear deformation and rotary inertia."""
@@ -345,7 +352,7 @@ def discrete_kernel(section: BeamSection, spring_x, omega, force_x, response_x, 
 
     Springs spread their force over ``spring_length``, loads over ``load_length`` and
     responses are averaged over ``response_length`` (m), with the same closed-form box
-    smoothing as the WFE rail (railfem.rail.mobility.residue_sum); 0 is a point."""
+    smoothing as the WFE rail (railfem.rail.greens.residue_sum); 0 is a point."""
     w = np.atleast_1d(_as_omega(omega, allow_zero=False))
     if w.ndim != 1:
         raise ValueError("omega must be a scalar or 1-D array (rad/s)")
@@ -475,10 +482,8 @@ class LateralSection:
     @classmethod
     def from_mesh(cls, mesh, material) -> "LateralSection":
         """Constants of the meshed section (railfem.rail.section) and the material."""
-        from ..rail import section
-
-        sc = section.section_constants(mesh)
-        wp = section.warping(mesh)
+        sc = rail_section.section_constants(mesh)
+        wp = rail_section.warping(mesh)
         return cls(E=material.E, G=material.G, rho=material.rho, eta=material.loss_factor,
                    area=sc.area, I_z=sc.I_z, kappa_y=sc.kappa_y, J=sc.J, Gamma=wp["Gamma"],
                    I_p=sc.I_p, z_s=wp["z_s"], e=wp["e"])
@@ -550,7 +555,7 @@ def lateral_receptance(section: LateralSection, omega, x, force, response, *, k_
     """Receptance (nf, n_out, nx, n_in) of the infinite lateral beam on a continuous
     foundation (k_y, k_theta may be omega-shaped): forces with generalised weights
     ``force`` (n_in, 3) at x = 0, spread over load_length, responses ``response``
-    (n_out, 3) at x (m), averaged over response_length (railfem.rail.mobility.residue_sum).
+    (n_out, 3) at x (m), averaged over response_length (railfem.rail.greens.residue_sum).
 
     Residues: A(k)^-1 has the pole phi psi^T / ((k - k_n) d_n) at each root; x >= 0 sums
     the roots with Im k < 0, x < 0 their mirrors -k_n with T phi_n, T psi_n."""
