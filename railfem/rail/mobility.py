@@ -8,6 +8,8 @@ over the positive-going waves; x < 0 follows from the mirror x -> -x of the rail
 flips the axial DOFs: u(-x; F) = T_a u(x; T_a F). A load spread along the rail over a box
 of length L (centred on x = 0) convolves each wave term with the box, which is integrated in
 closed form, so responses inside and outside the loaded length are exact for the waves kept.
+This module projects the waves of the section on loads and responses (``FamilyResponse``,
+``wave_terms``); the residue sums themselves are railfem.rail.greens.
 
 Locations (loads and responses) are weight vectors over the DOFs: a single DOF for a point,
 or a patch of consistent nodal loads over a stretch of boundary. A force on one node of a
@@ -22,6 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .greens import residue_sum
 from .waveguide import Waveguide, check_resolution
 from .waves import FamilyOperators, frozen_tail, join, waves_at
 
@@ -51,8 +54,9 @@ def point(guide: Waveguide, node: int | str, direction: str = "z", label: str | 
     return Location(label=label or f"{name}_{direction}", weights=w)
 
 
-def _boundary_edges(guide: Waveguide) -> np.ndarray:
-    """(ne, 3) boundary edges of the P2 mesh as (end, end, mid) node indices."""
+def boundary_edges(guide: Waveguide) -> np.ndarray:
+    """(ne, 3) boundary edges of the section's P2 mesh as (end, end, mid) node indices: the
+    element edges whose mid-side node lies on the boundary (surface patches, foot beds)."""
     e = guide.elements
     edges = np.vstack([e[:, [0, 1, 3]], e[:, [1, 2, 4]], e[:, [2, 0, 5]]])
     return edges[np.isin(edges[:, 2], guide.node_sets["boundary"])]
@@ -116,7 +120,7 @@ def surface_patch(guide: Waveguide, centre: tuple[float, float], width: float,
         b = guide.node_sets["boundary"]
         n0 = b[np.argmin(np.hypot(nodes[b, 0] - centre[0], nodes[b, 1] - centre[1]))]
         return point(guide, int(n0), direction, label)
-    ed = _boundary_edges(guide)
+    ed = boundary_edges(guide)
     mid = nodes[ed[:, 2]]
     near = np.nonzero(np.hypot(mid[:, 0] - centre[0], mid[:, 1] - centre[1])
                       < max(width, 2 * guide.mesh.h))[0]
@@ -137,61 +141,6 @@ def head_patch(guide: Waveguide, width: float = 0.02, direction: str = "z") -> L
     top = guide.nodes[guide.node("head_top")]
     return surface_patch(guide, (float(top[0]), float(top[1])), width, direction,
                          label=f"head_{direction}")
-
-
-def _smoothing_pieces(L_force: float, L_resp: float):
-    """The convolution of the force box (length L_force) with the response box (L_resp):
-    a trapezoid, as linear pieces (tau0, tau1, w0, w1) of unit area; [] for two points."""
-    a, b = max(L_force, L_resp), min(L_force, L_resp)
-    if a == 0:
-        return []
-    top = 1.0 / a
-    if b == 0:
-        return [(-a / 2, a / 2, top, top)]
-    pieces = [(-(a + b) / 2, -(a - b) / 2, 0.0, top), ((a - b) / 2, (a + b) / 2, top, 0.0)]
-    if a > b:
-        pieces.insert(1, (-(a - b) / 2, (a - b) / 2, top, top))
-    return pieces
-
-
-def _forward_kernel(k: np.ndarray, x: np.ndarray, pieces) -> np.ndarray:
-    """int w(tau) exp(-i k (x + tau)) over x + tau >= 0 for piecewise-linear w: (nw, nx).
-
-    Closed form with the primitives of exp(-iks) and s exp(-iks), so that strongly
-    evanescent waves (|k| L >> 1) are integrated exactly."""
-    k = k[:, None]
-    if not pieces:
-        return np.where(x >= 0, np.exp(-1j * k * np.abs(x)), 0.0)
-    out = np.zeros((k.shape[0], x.size), dtype=complex)
-    for t0, t1, w0, w1 in pieces:
-        slope = (w1 - w0) / (t1 - t0)
-        lo, hi = np.maximum(x + t0, 0.0), np.maximum(x + t1, 0.0)
-        # w as a function of s = x + tau: w = w0 + slope (s - x - t0)
-        c0 = w0 - slope * (x + t0)
-        e_lo, e_hi = np.exp(-1j * k * lo), np.exp(-1j * k * hi)
-        i0 = 1j / k * (e_hi - e_lo)
-        i1 = e_hi * (1j * hi / k + 1 / k**2) - e_lo * (1j * lo / k + 1 / k**2)
-        out += np.where(hi > lo, c0 * i0 + slope * i1, 0.0)
-    return out
-
-
-def _kernels(k: np.ndarray, x: np.ndarray, L_force: float, L_resp: float):
-    """Forward (load -> +x) and backward wave kernels at response positions x, for a force
-    spread uniformly over L_force and a response averaged over L_resp (both centred)."""
-    pieces = _smoothing_pieces(L_force, L_resp)
-    if not pieces:
-        e = np.exp(-1j * k[:, None] * np.abs(x))
-        return e * (x >= 0), e * (x < 0)
-    # outside the smoothing window the kernel is a plain wave times a constant per wave
-    half = (L_force + L_resp) / 2
-    at_edge = _forward_kernel(k, np.array([half]), pieces)
-    near = np.abs(x) < half
-    plain = at_edge * np.exp(-1j * k[:, None] * np.clip(np.abs(x) - half, 0.0, None))
-    fwd, bwd = plain * (x >= half), plain * (x <= -half)
-    if near.any():
-        fwd[:, near] = _forward_kernel(k, x[near], pieces)
-        bwd[:, near] = _forward_kernel(k, -x[near], pieces)
-    return fwd, bwd
 
 
 class FamilyResponse:
@@ -239,7 +188,7 @@ def free_receptance(guide: Waveguide, frequency, force: list[Location], response
     response odd in x (axial response to an in-plane load) should vanish there but comes out
     at 1e-4 (dense) to a few % (shift-invert) of the largest response; use x != 0 or a length.
     """
-    f = _check_frequency(frequency)
+    f = check_frequency(frequency)
     x = np.atleast_1d(np.asarray(x, dtype=float))
     if not np.all(np.isfinite(x)):
         raise ValueError("response positions x must be finite (m)")
@@ -274,65 +223,14 @@ def wave_terms(fr: FamilyResponse, w):
     return fr.R @ phi, a, (fr.R * fr.flip[None, :]) @ phi, b
 
 
-def _pair_products(R: np.ndarray, p: np.ndarray) -> np.ndarray:
-    """C[(o, i), n] = R[o, n] p[n, i]: the per-wave weight of each output-input pair."""
-    return (R[:, None, :] * p.T[None, :, :]).reshape(R.shape[0] * p.shape[1], -1)
-
-
-def combine(terms, fwd: np.ndarray, bwd: np.ndarray) -> np.ndarray:
-    """-i sum_n over waves with forward/backward kernels (nw, ...) -> (n_out, ..., n_in)."""
-    Rphi, a, Rphi_m, b = terms
-    n_o, n_i = Rphi.shape[0], a.shape[1]
-    s = (_pair_products(Rphi, a) @ fwd.reshape(fwd.shape[0], -1)
-         + _pair_products(Rphi_m, b) @ bwd.reshape(bwd.shape[0], -1))
-    return -1j * np.moveaxis(s.reshape(n_o, n_i, *fwd.shape[1:]), 1, -1)
-
-
-def residue_sum(terms, k: np.ndarray, x, L_force: float = 0.0,
-                L_resp: float = 0.0) -> np.ndarray:
-    """Receptance (n_out, nx, n_in) of a wave set given its ``wave_terms`` and wavenumbers k,
-    at response positions x (1-D, m) relative to the load centre.
-
-    Outside the smoothing window only one direction contributes (forward for x >= the
-    half window, backward for x <= minus it), each a plain wave times a constant, so each
-    side is one matrix product; near-field waves are skipped beyond their reach, where they
-    are below e^-35 of their amplitude."""
-    x = np.asarray(x, dtype=float)
-    Rphi, a, Rphi_m, b = terms
-    n_o, n_i = Rphi.shape[0], a.shape[1]
-    Cf, Cb = _pair_products(Rphi, a), _pair_products(Rphi_m, b)
-    pieces = _smoothing_pieces(L_force, L_resp)
-    half = (L_force + L_resp) / 2
-    edge = _forward_kernel(k, np.array([half]), pieces)[:, 0] if pieces else np.ones(len(k))
-    reach = 35.0 / np.maximum(-k.imag, 1e-300) + half
-    out = np.zeros((n_o * n_i, x.size), dtype=complex)
-    pos = x >= half
-    neg = (x <= -half) if pieces else ~pos
-    for side, C in ((pos, Cf), (neg, Cb)):
-        if not side.any():
-            continue
-        idx = np.flatnonzero(side)
-        s = np.abs(x[idx]) - half
-        far = reach - half >= s.max()
-        out[:, idx] = (C[:, far] * edge[far]) @ np.exp(-1j * np.outer(k[far], s))
-        short = ~far & (reach - half >= s.min())
-        if short.any():
-            sub = s <= (reach[short] - half).max()
-            out[:, idx[sub]] += (C[:, short] * edge[short]) @ np.exp(
-                -1j * np.outer(k[short], s[sub]))
-    near = ~(pos | neg)
-    if near.any():
-        fwd, bwd = _kernels(k, x[near], L_force, L_resp)
-        out[:, near] = Cf @ fwd + Cb @ bwd
-    return -1j * out.reshape(n_o, n_i, x.size).transpose(0, 2, 1)
-
-
 def wave_sum(fr: FamilyResponse, w, x, L_force: float = 0.0, L_resp: float = 0.0) -> np.ndarray:
     """Receptance (n_out, nx, n_in) of one family's waves at response positions x."""
     return residue_sum(wave_terms(fr, w), w.k, x, L_force, L_resp)
 
 
-def _check_frequency(frequency) -> np.ndarray:
+def check_frequency(frequency) -> np.ndarray:
+    """frequency (Hz) as a 1-D float array; ValueError unless every value is positive and
+    finite."""
     f = np.atleast_1d(np.asarray(frequency, dtype=float))
     if f.ndim != 1 or not np.all(np.isfinite(f)) or np.any(f <= 0):
         raise ValueError(f"frequency must be a 1-D array of positive finite values in Hz, got "
@@ -345,7 +243,7 @@ def free_mobility(guide: Waveguide, frequency, force: Location, response: list[L
     """Free-rail mobility as an FRF: outputs are (response, x) pairs, input is the force."""
     from ..frf import FRF
 
-    f = _check_frequency(frequency)
+    f = check_frequency(frequency)
     x = np.atleast_1d(np.asarray(x, dtype=float))
     alpha = free_receptance(guide, f, [force], response, x, **kwargs)
     nf = len(f)

@@ -42,7 +42,8 @@ from .coupling import (
     DiscreteKernel, PeriodicKernel, couple_discrete, couple_periodic, theta_mean,
     unique_separations,
 )
-from ..rail.mobility import FamilyResponse, Location, _kernels, combine, residue_sum, wave_sum
+from ..rail.greens import combine, residue_sum, wave_kernels
+from ..rail.mobility import FamilyResponse, Location, boundary_edges, check_frequency, wave_sum
 from .supports import SupportLayout, directional_stiffness, dynamic_stiffness
 from ..rail.waveguide import Waveguide
 from ..rail.waves import FamilyOperators, frozen_tail, join, waves_at
@@ -181,9 +182,7 @@ class TrackResponse:
 
 
 def _axes(frequency, force_x, response_x):
-    from ..rail.mobility import _check_frequency
-
-    f = _check_frequency(frequency)
+    f = check_frequency(frequency)
     fx = np.atleast_1d(np.asarray(force_x, dtype=float))
     rx = np.atleast_1d(np.asarray(response_x, dtype=float))
     for name, v in (("force_x", fx), ("response_x", rx)):
@@ -360,8 +359,8 @@ def _lattice(sets, o, i, delta, d, theta, Lf, Lr, n_explicit: int = 2) -> np.nda
         if alive.any():
             ka = k[alive]
             ta = (terms[0][:, alive], terms[1][alive], terms[2][:, alive], terms[3][alive])
-            fwd, _ = _kernels(ka, delta + m * d, Lf, Lr)
-            _, bwd = _kernels(ka, delta - m * d, Lf, Lr)
+            fwd, _ = wave_kernels(ka, delta + m * d, Lf, Lr)
+            _, bwd = wave_kernels(ka, delta - m * d, Lf, Lr)
             q = np.exp(-1j * ka * d)[:, None]
             gf = np.exp(-1j * m * theta)[None, :] / (1 - q * np.exp(-1j * theta)[None, :])
             gb = np.exp(1j * m * theta)[None, :] / (1 - q * np.exp(1j * theta)[None, :])
@@ -454,10 +453,8 @@ def foot_bed(guide: Waveguide, component: int = 2) -> sp.csr_matrix:
     """Diagonal (row-sum lumped) distribution of a unit foundation stiffness over the
     rail-foot underside: consistent P2 edge weights by lateral width, summing to 1, on the
     DOFs of ``component`` (2 = u_z, the vertical bed; 1 = u_y lateral, 0 = u_x)."""
-    from ..rail.mobility import _boundary_edges
-
     under = guide.node_sets.get("foot_underside", np.array([], dtype=int))
-    ed = _boundary_edges(guide)
+    ed = boundary_edges(guide)
     ed = ed[np.isin(ed[:, 0], under) & np.isin(ed[:, 1], under)]
     if len(ed) == 0:
         raise ValueError("the mesh has no rail-foot underside edges to carry a continuous "
