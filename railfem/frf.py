@@ -44,6 +44,13 @@ def _labels(name: str, labels, n: int, axis: str) -> tuple[str, ...]:
     return labels
 
 
+def _few(labels: tuple[str, ...], keep: int = 2) -> str:
+    """The labels, or the first and last ``keep`` of a long list with its length."""
+    if len(labels) <= 2 * keep + 1:
+        return ", ".join(labels)
+    return f"{', '.join(labels[:keep])}, ..., {', '.join(labels[-keep:])} ({len(labels)})"
+
+
 def _positions(name: str, x, n: int) -> np.ndarray | None:
     if x is None:
         return None
@@ -130,6 +137,13 @@ class FRF:
         set_(self, "force", _labels("force", self.force, n_in, "forces"))
         set_(self, "response_x", _positions("response_x", self.response_x, n_out))
         set_(self, "force_x", _positions("force_x", self.force_x, n_in))
+
+    def __repr__(self) -> str:
+        """A few lines: quantity, shape, frequency range and labels (not the arrays)."""
+        f = self.frequency
+        return (f"FRF({self.quantity} in {self.units}, shape {self.shape}: {f.size} "
+                f"frequencies {f[0]:g} Hz .. {f[-1]:g} Hz,\n"
+                f"    response: {_few(self.response)},\n    force: {_few(self.force)})")
 
     @property
     def units(self) -> str:

@@ -184,3 +184,18 @@ def test_malformed_files_name_file_line_and_fix(tmp_path, text, match):
 def test_missing_file_error(tmp_path):
     with pytest.raises(FRFFileError, match="cannot read the file"):
         read_frf_csv(tmp_path / "nope.csv")
+
+
+def test_repr_is_short_and_says_what_the_frf_holds():
+    """print(FRF) dumped every array; it now names quantity, shape, range and labels."""
+    f = np.linspace(10.0, 5000.0, 1000)
+    labels = tuple(f"head_z@x={0.1 * k:.3f}" for k in range(40))
+    Y = FRF(frequency=f, values=np.ones((1000, 40, 1)) * 1e-9, quantity="mobility",
+            response=labels, force=("head_z@x=0.000",))
+    text = repr(Y)
+    assert len(text) < 400 and text.count("\n") <= 3, text
+    assert "mobility" in text and "m/s/N" in text and "(1000, 40, 1)" in text
+    assert "10 Hz" in text and "5000 Hz" in text
+    assert "head_z@x=0.000" in text and "head_z@x=3.900" in text and "..." in text
+    assert "array(" not in text and "np." not in text
+    assert str(Y) == text
