@@ -37,6 +37,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 from .. import __version__  # noqa: E402
 from .common import EXIT_BAD_INPUT, BadInput  # noqa: E402
+from .cache import cache_args, cache_run  # noqa: E402
 from .measure import (diagnose_args, diagnose_run, fit_args, fit_run,  # noqa: E402
                       tdr_args, tdr_run)
 from .passby import (passby_args, passby_run, roughness_args, roughness_run,  # noqa: E402
@@ -79,6 +80,7 @@ COMMANDS = {
     "fit": (fit_args, fit_run, "track parameters fitted to measured data, with uncertainty"),
     "diagnose": (diagnose_args, diagnose_run,
                  "residual of a calibrated model traced to a physical effect, before/after"),
+    "cache": (cache_args, cache_run, "the kernel cache: folder, size and cap (info); clear"),
 }
 
 

@@ -10,6 +10,11 @@ written atomically (``railfem.atomic``).
 The disk folder is, in order: the ``directory`` given, ``$RAILFEM_CACHE``,
 ``$XDG_CACHE_HOME/railfem``, ``~/.cache/railfem``. ``KernelStore(directory=False)`` keeps
 kernels in memory only.
+
+The folder is kept under a size cap (``max_bytes``, default ``$RAILFEM_CACHE_MAX_MB`` MB or
+2000 MB): after each write the least recently used kernel files are removed (reading a
+kernel from disk marks it used). Only kernel files (``KIND-HASH.npz``) are counted and
+removed; anything else in the folder is left alone.
 """
 from __future__ import annotations
 
@@ -17,6 +22,7 @@ import hashlib
 import io
 import logging
 import os
+import re
 from collections import OrderedDict
 from pathlib import Path
 
@@ -29,6 +35,12 @@ log = logging.getLogger(__name__)
 #: Bumped whenever a kernel's content or layout changes: old cache files are then ignored.
 KERNEL_FORMAT = 3
 
+#: Environment variable bounding the on-disk cache, in MB.
+SIZE_VARIABLE = "RAILFEM_CACHE_MAX_MB"
+DEFAULT_MAX_MB = 2000.0
+#: Names of kernel files (what content_key gives, .npz): the only files counted and removed.
+KERNEL_FILE = re.compile(r"^[\w.-]+-[0-9a-f]{40}\.npz$")
+
 
 def default_directory() -> Path:
     """$RAILFEM_CACHE, else $XDG_CACHE_HOME/railfem, else ~/.cache/railfem."""
@@ -37,6 +49,80 @@ def default_directory() -> Path:
         return Path(env)
     xdg = os.environ.get("XDG_CACHE_HOME")
     return (Path(xdg) if xdg else Path.home() / ".cache") / "railfem"
+
+
+def max_bytes() -> int:
+    """The cap of the on-disk cache in bytes: $RAILFEM_CACHE_MAX_MB (MB), else 2000 MB."""
+    value = os.environ.get(SIZE_VARIABLE, "").strip()
+    if not value:
+        return int(DEFAULT_MAX_MB * 1e6)
+    try:
+        mb = float(value)
+        if not (mb > 0 and mb < float("inf")):
+            raise ValueError
+    except ValueError:
+        raise ValueError(f"{SIZE_VARIABLE}={value!r}: give the largest size of the kernel "
+                         f"cache in MB, a number > 0 (default {DEFAULT_MAX_MB:g})") from None
+    return int(mb * 1e6)
+
+
+def entries(directory) -> list[tuple[Path, int, float]]:
+    """(path, bytes, last use as a time stamp) of each kernel file in ``directory``, least
+    recently used first; [] for a missing folder."""
+    out = []
+    try:
+        names = os.listdir(directory)
+    except (FileNotFoundError, NotADirectoryError):
+        return []
+    for name in names:
+        if not KERNEL_FILE.match(name):
+            continue
+        path = Path(directory) / name
+        try:
+            st = path.stat()
+        except OSError:  # removed meanwhile by another process
+            continue
+        out.append((path, st.st_size, max(st.st_mtime, st.st_atime)))
+    return sorted(out, key=lambda e: e[2])
+
+
+def trim(directory, limit: int, keep=()) -> list[Path]:
+    """Remove the least recently used kernel files until ``directory`` holds at most
+    ``limit`` bytes of them; paths in ``keep`` stay. Returns the removed paths."""
+    files = entries(directory)
+    total = sum(size for _, size, _ in files)
+    keep = {Path(k) for k in keep}
+    removed = []
+    for path, size, _ in files:
+        if total <= limit:
+            break
+        if path in keep:
+            continue
+        try:
+            path.unlink()
+        except FileNotFoundError:
+            pass
+        except OSError as exc:
+            log.warning("cannot remove kernel cache file %s (%s)", path, exc)
+            continue
+        total -= size
+        removed.append(path)
+    if removed:
+        log.info("kernel cache %s: removed %d least recently used file(s) to stay under "
+                 "%.0f MB", directory, len(removed), limit / 1e6)
+    return removed
+
+
+def clear(directory) -> tuple[int, int]:
+    """Remove every kernel file of ``directory``: (files removed, bytes freed)."""
+    n = freed = 0
+    for path, size, _ in entries(directory):
+        try:
+            path.unlink()
+        except FileNotFoundError:
+            continue
+        n, freed = n + 1, freed + size
+    return n, freed
 
 
 def _feed(h, obj) -> None:
@@ -69,11 +155,16 @@ class KernelStore:
     """Kernels by key: an in-memory LRU of ``max_items`` and an optional disk folder.
 
     directory: a folder, None for ``default_directory()``, or False for memory only.
+    max_bytes: cap of the disk folder's kernel files (bytes); None for ``max_bytes()``
+    ($RAILFEM_CACHE_MAX_MB, read at each write).
     """
 
-    def __init__(self, directory=None, max_items: int = 8):
+    def __init__(self, directory=None, max_items: int = 8, max_bytes: int | None = None):
         self.directory = None if directory is False else Path(directory or default_directory())
         self.max_items = int(max_items)
+        if max_bytes is not None and not max_bytes > 0:
+            raise ValueError(f"KernelStore.max_bytes = {max_bytes!r}: give a size in bytes > 0")
+        self.max_bytes = max_bytes
         self._memory: OrderedDict[str, dict] = OrderedDict()
 
     def _path(self, key: str) -> Path:
@@ -95,6 +186,10 @@ class KernelStore:
             log.warning("ignoring unreadable kernel cache file %s (%s)", path, exc)
             return None
         log.debug("kernel %s read from %s", key, path)
+        try:
+            os.utime(path)  # used now: the last to go when the folder is trimmed
+        except OSError:
+            pass
         self._remember(key, arrays)
         return arrays
 
@@ -109,6 +204,9 @@ class KernelStore:
         except OSError as exc:  # a read-only cache folder costs speed, not results
             log.warning("cannot write kernel cache %s (%s); continuing without", self.directory,
                         exc)
+            return
+        limit = max_bytes() if self.max_bytes is None else self.max_bytes
+        trim(self.directory, limit, keep=(self._path(key),))
 
     def _remember(self, key: str, arrays: dict) -> None:
         self._memory[key] = arrays
