@@ -391,3 +391,58 @@ def test_curved_mesh_structure(uic_mesh):
                                        m.profile.outline)
     assert dist.max() < 1e-4 and chord.max() > 5e-4
     assert meshing.min_jacobian_ratio(m).min() > 0
+
+
+def chamfered_rectangle_mm(w=60.0, hgt=150.0, c=12.0):
+    """A w x hgt bar (mm) with 45-degree chamfers of leg c at its four corners, centred on
+    y = 0, underside at z = 0, counter-clockwise."""
+    a = w / 2
+    return [(-a + c, 0), (a - c, 0), (a, c), (a, hgt - c), (a - c, hgt), (-a + c, hgt),
+            (-a, hgt - c), (-a, c)]
+
+
+def chamfered_rectangle_exact(w=60.0, hgt=150.0, c=12.0):
+    """Area and I_y (mm^2, mm^4) in closed form: the bar less four right triangles of legs
+    c (each: area c^2/2, own I c^4/36, centroid hgt/2 - c/3 from the bending axis)."""
+    area = w * hgt - 2 * c**2
+    I_y = w * hgt**3 / 12 - 4 * (c**4 / 36 + c**2 / 2 * (hgt / 2 - c / 3) ** 2)
+    return area, I_y
+
+
+def test_polygon_outline_from_csv_keeps_its_45_degree_corners(tmp_path, caplog):
+    """A CSV outline with 45-degree chamfers was rounded by splines through its points (only
+    turns above 45 degrees were corners): area +7 %, I_y +19 %, no warning. A CSV outline
+    is now the polygon of its points; '# smooth' in the file asks for splines, and a meshed
+    area more than 0.5 % off the polygon's is reported."""
+    path = tmp_path / "chamfered.csv"
+    rows = "\n".join(f"{y:g},{z:g}" for y, z in chamfered_rectangle_mm())
+    path.write_text("y_mm,z_mm\n" + rows + "\n")
+    prof = profiles.get_profile(str(path))
+    assert not prof.smooth
+    A0, Iy0 = chamfered_rectangle_exact()
+    for h in (0.02, 0.01):
+        A, cz, Iy, Iz = section.moments(meshing.mesh_profile(prof, h))
+        assert A == pytest.approx(A0 * 1e-6, rel=5e-3)
+        assert Iy == pytest.approx(Iy0 * 1e-12, rel=5e-3)
+        assert cz == pytest.approx(0.075, rel=1e-9)
+    # the file may ask for splines through its points: then the difference is reported
+    path.write_text("# smooth\n" + rows + "\n")
+    smooth = profiles.get_profile(str(path))
+    assert smooth.smooth
+    with caplog.at_level("WARNING", logger="railfem.rail.meshing"):
+        A = section.moments(meshing.mesh_profile(smooth, 0.02))[0]
+    assert abs(A / (A0 * 1e-6) - 1) > 5e-3
+    assert "area" in caplog.text and "polygon" in caplog.text and "%" in caplog.text
+
+
+def test_digitised_60E1_is_still_smoothed_without_a_warning(caplog):
+    """The packaged 60E1 outline digitises curves: it keeps its splines (the shipped meshes
+    and their EN 13674-1 agreement are unchanged) and meshes within 0.5 % of its polygon."""
+    prof = profiles.uic60()
+    assert prof.smooth
+    with caplog.at_level("WARNING", logger="railfem.rail.meshing"):
+        mesh = meshing.mesh_profile(prof, 0.02)
+    assert "polygon" not in caplog.text
+    shipped = meshing.load_mesh(meshing.shipped_path("60E1", 0.02))
+    assert np.array_equal(mesh.elements, shipped.elements)
+    assert np.allclose(mesh.nodes, shipped.nodes, atol=1e-12)

@@ -8,13 +8,17 @@ O(h^2) of straight-sided elements on a curved outline. ``SectionMesh.straight()`
 same triangulation with the mid-side nodes moved to the chord midpoints (the straight-sided
 P2 mesh, kept for convergence comparisons).
 
-Gmsh meshing (:func:`mesh_profile`): the outline is split at its corners (turning angle
-above ``CORNER_ANGLE_DEG``) and each smooth run between corners becomes one Gmsh spline
-through the outline points, so the curved head, fillets and foot toe stay smooth without a
-mesh node at each digitised point, and any outline works unchanged (a rectangle has four
-straight runs). A mirror-symmetric outline (``RailProfile.symmetric``) is meshed on its
-right half and mirrored, so the mesh is exactly symmetric and its waves split into two
-families; an asymmetric outline is meshed whole and never mirrored (one wave family).
+Gmsh meshing (:func:`mesh_profile`): a digitised outline (``RailProfile.smooth``, e.g. 60E1)
+is split at its corners (turning angle above ``CORNER_ANGLE_DEG``) and each smooth run
+between corners becomes one Gmsh spline through the outline points, so the curved head,
+fillets and foot toe stay smooth without a mesh node at each digitised point (a rectangle
+has four straight runs). A polygon outline (``smooth`` False, what a CSV outline is unless
+the file asks for smoothing) is meshed with straight edges between its points, every point
+a corner. A meshed area more than ``AREA_TOL`` off the outline polygon's is logged as a
+warning (splines rounding corners that were meant to be sharp). A mirror-symmetric
+outline (``RailProfile.symmetric``) is meshed on its right half and mirrored, so the mesh
+is exactly symmetric and its waves split into two families; an asymmetric outline is
+meshed whole and never mirrored (one wave family).
 After the linear mesh, Gmsh raises the order to 2, placing mid-side nodes on the splines.
 
 Any mesh in (:func:`read_mesh`): a 2-D mesh file that meshio reads (Gmsh ``.msh`` 2.2 and
@@ -34,12 +38,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .profiles import RailProfile, get_profile, half_outline, mirror_deviation
+from .profiles import (RailProfile, get_profile, half_outline, mirror_deviation,
+                       polygon_properties)
 
 log = logging.getLogger(__name__)
 
 CORNER_ANGLE_DEG = 45.0  # a sharper turn at one outline point is a corner of the section
 STRAIGHT_ANGLE_DEG = 0.05  # a point turning less is inside a straight run
+AREA_TOL = 0.005  # relative difference of meshed and polygon area that is reported
 MESH_DIR = Path(__file__).resolve().parents[1] / "data" / "meshes"  # package data: works installed
 DEFAULT_PROFILE = "60E1"
 DEFAULT_H = 0.010  # m; default element size of the shipped mesh
@@ -201,12 +207,14 @@ def _turning(pts: np.ndarray, closed: bool) -> np.ndarray:
     return (np.diff(ang) + np.pi) % (2 * np.pi) - np.pi
 
 
-def _curves(pts: np.ndarray, closed: bool) -> list[tuple[str, list[int]]]:
+def _curves(pts: np.ndarray, closed: bool,
+            smooth: bool = True) -> list[tuple[str, list[int]]]:
     """Split an outline into Gmsh curves: ('line', [i, j]) for each straight run of three or
     more collinear points and each single segment between corners, ('spline', [i, ..., j])
     for each curved run. Breaks are corners (turning above CORNER_ANGLE_DEG) and the ends of
     straight runs, so a flat foot underside stays exactly flat and a fillet is one smooth
-    spline nearly tangent to its neighbours. Indices run past len(pts) for a closed outline."""
+    spline nearly tangent to its neighbours. Not ``smooth``: every point is a corner (one
+    line per segment: the polygon). Indices run past len(pts) for a closed outline."""
     n = len(pts)
     turn = np.abs(_turning(pts, closed))
     if closed:
@@ -216,7 +224,7 @@ def _curves(pts: np.ndarray, closed: bool) -> list[tuple[str, list[int]]]:
     flat = np.zeros(n, bool)
     flat[vert] = turn < np.radians(STRAIGHT_ANGLE_DEG)
     corner = np.zeros(n, bool)
-    corner[vert] = turn > np.radians(CORNER_ANGLE_DEG)
+    corner[vert] = turn > np.radians(CORNER_ANGLE_DEG) if smooth else True
     if not closed:
         corner[[0, -1]] = True
     # segment s (from point s to s + 1) is straight when it lies in a run of >= 3 collinear
@@ -248,9 +256,11 @@ def _curves(pts: np.ndarray, closed: bool) -> list[tuple[str, list[int]]]:
     return out
 
 
-def _gmsh_p2(pts: np.ndarray, h: float, *, closed: bool) -> tuple[np.ndarray, np.ndarray]:
+def _gmsh_p2(pts: np.ndarray, h: float, *, closed: bool,
+             smooth: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """Second-order Gmsh mesh of an outline: a closed polygon, or an open half outline from
-    the bottom axis crossing to the top one (closed along the axis by a straight line)."""
+    the bottom axis crossing to the top one (closed along the axis by a straight line);
+    ``smooth``: splines through the points between corners (_curves)."""
     import gmsh
 
     gmsh.initialize(["-noenv"], readConfigFiles=False)
@@ -261,7 +271,7 @@ def _gmsh_p2(pts: np.ndarray, h: float, *, closed: bool) -> tuple[np.ndarray, np
         n = len(pts)
         tags = {}
 
-        runs = _curves(pts, closed)
+        runs = _curves(pts, closed, smooth)
         # mesh size at each curve end: h, or the length of a shorter adjacent curve, so that
         # a short curve (a small fillet) is one mesh edge and no triangle has all three
         # corners on it (such ears come out nearly flat once their edges are curved)
@@ -337,11 +347,12 @@ def mesh_profile(profile: RailProfile | str = DEFAULT_PROFILE, h: float = DEFAUL
                          f"mirrored point lies {dev * 1e3:.3g} mm off the outline; mesh it "
                          "whole (symmetric=None or False)")
     if profile.symmetric if symmetric is None else symmetric:
-        nodes, elements = _gmsh_p2(half_outline(profile), h, closed=False)
+        nodes, elements = _gmsh_p2(half_outline(profile), h, closed=False,
+                                   smooth=profile.smooth)
         nodes, elements = _mirror(nodes, elements, tol=1e-9 * profile.height)
         how = f"right half mirrored (outline symmetric to {dev * 1e6:.3g} um)"
     else:
-        nodes, elements = _gmsh_p2(profile.outline, h, closed=True)
+        nodes, elements = _gmsh_p2(profile.outline, h, closed=True, smooth=profile.smooth)
         how = f"whole outline (mirror deviation {dev * 1e3:.3g} mm)"
     mesh = SectionMesh(nodes=nodes, elements=elements, h=h, profile=profile,
                        source=f"gmsh, {how}")
@@ -351,7 +362,34 @@ def mesh_profile(profile: RailProfile | str = DEFAULT_PROFILE, h: float = DEFAUL
                          "inverted by their mid-side nodes; use a smaller h or curved=False")
     log.info("meshed %s at h = %.4g m (%s): %d nodes, %d elements", profile.name, h, how,
              len(nodes), len(elements))
+    check_area(mesh)
     return mesh if curved else mesh.straight()
+
+
+def mesh_area(mesh: SectionMesh) -> float:
+    """Area (m^2) of the 6-node mesh with its curved sides: Green's theorem on each element
+    edge, Simpson's rule (exact: the integrand is a cubic on a quadratic edge)."""
+    p, e = mesh.nodes, mesh.elements
+    area = 0.0
+    for i, j, m in ((0, 1, 3), (1, 2, 4), (2, 0, 5)):
+        a, b, c = p[e[:, i]], p[e[:, j]], p[e[:, m]]
+        ends = ((a, 4 * c - 3 * a - b, 1.0), (c, b - a, 4.0), (b, a - 4 * c + 3 * b, 1.0))
+        for q, dq, w in ends:  # point, tangent and Simpson weight at t = 0, 1/2, 1
+            area += w * float(np.sum(q[:, 0] * dq[:, 1] - q[:, 1] * dq[:, 0])) / 12.0
+    return area
+
+
+def check_area(mesh: SectionMesh) -> float:
+    """Relative difference of the meshed area and the outline polygon's; a warning when it
+    exceeds AREA_TOL (splines through the points rounding corners meant to be sharp)."""
+    poly = polygon_properties(mesh.profile.outline).area
+    diff = mesh_area(mesh) / poly - 1.0
+    if abs(diff) > AREA_TOL:
+        log.warning("the mesh of %s has an area %+.2f %% off its outline polygon (splines "
+                    "through the outline points, RailProfile.smooth); if the outline is a "
+                    "polygon with sharp corners give smooth=False (a CSV outline without "
+                    "the '# smooth' line)", mesh.profile.name, 100 * diff)
+    return diff
 
 
 # ------------------------------------------------------------------- .npz files

@@ -43,11 +43,16 @@ class RailProfile:
     name: label used in file names and plots.
     outline: (n, 2) array of (y, z) vertices in m, counter-clockwise, not repeating the first.
     source: where the outline comes from (free text, kept with outputs).
+    smooth: True (default) when the points digitise a curved outline: the mesher joins them
+    by splines between the corners (turns sharper than meshing.CORNER_ANGLE_DEG); False
+    when the outline is the polygon itself: straight edges between the points, every point
+    a corner (what a CSV outline is unless the file asks for smoothing).
     """
 
     name: str
     outline: np.ndarray
     source: str = ""
+    smooth: bool = True
     meta: dict = field(default_factory=dict)
 
     def __post_init__(self):
@@ -58,6 +63,10 @@ class RailProfile:
                 f"n >= 3, got shape {pts.shape}")
         if not np.all(np.isfinite(pts)):
             raise ValueError(f"profile {self.name!r}: outline contains NaN or inf coordinates")
+        if not isinstance(self.smooth, (bool, np.bool_)):
+            raise ValueError(f"profile {self.name!r}: smooth = {self.smooth!r}; give True "
+                             "(splines through digitised points) or False (a polygon)")
+        object.__setattr__(self, "smooth", bool(self.smooth))
         if np.allclose(pts[0], pts[-1]):
             pts = pts[:-1]
         if _signed_area(pts) <= 0:
@@ -186,8 +195,17 @@ def polygon_properties(outline: np.ndarray) -> SectionProperties:
                              I_y=Iyy0 - A * cz**2, I_z=Izz0 - A * cy**2)
 
 
-def load_outline_csv(path, *, name: str | None = None, unit: str = "mm") -> RailProfile:
-    """Read a two-column (y, z) outline; '#' lines are comments, a header row is skipped."""
+#: A comment line of an outline CSV asking for splines through its points (RailProfile.smooth).
+SMOOTH_DIRECTIVE = "smooth"
+
+
+def load_outline_csv(path, *, name: str | None = None, unit: str = "mm",
+                     smooth: bool | None = None) -> RailProfile:
+    """Read a two-column (y, z) outline; '#' lines are comments, a header row is skipped.
+
+    The outline is the polygon of the points (straight edges, RailProfile.smooth False)
+    unless the file has a comment line ``# smooth`` (the points digitise curves: splines
+    through them) or ``smooth`` is given."""
     scale = {"mm": 1e-3, "m": 1.0}.get(unit)
     if scale is None:
         raise ValueError(f"outline unit must be 'mm' or 'm', got {unit!r}")
@@ -197,8 +215,11 @@ def load_outline_csv(path, *, name: str | None = None, unit: str = "mm") -> Rail
     except (OSError, UnicodeDecodeError) as exc:
         raise OSError(f"cannot read rail outline file {path}: {exc}") from exc
     rows = []
+    asked = False
     for lineno, line in enumerate(text.splitlines(), 1):
         s = line.strip()
+        if s.startswith("#"):
+            asked = asked or s.lstrip("#").strip().lower() == SMOOTH_DIRECTIVE
         if not s or s.startswith("#"):
             continue
         parts = s.replace(";", ",").split(",")
@@ -210,15 +231,16 @@ def load_outline_csv(path, *, name: str | None = None, unit: str = "mm") -> Rail
                     f"{path}:{lineno}: expected two numbers 'y,z' in {unit}, got {s!r}") from None
     if len(rows) < 3:
         raise ValueError(f"{path}: found {len(rows)} outline points, need at least 3")
-    return RailProfile(name=name or path.stem, outline=np.array(rows) * scale, source=str(path))
+    return RailProfile(name=name or path.stem, outline=np.array(rows) * scale, source=str(path),
+                       smooth=asked if smooth is None else smooth)
 
 
 def uic60() -> RailProfile:
     """UIC60 = EN 13674-1 60E1 from the packaged outline (see railfem/data/SOURCES.md)."""
     ref = resources.files("railfem") / "data" / "uic60_60E1_outline_mm.csv"
     with resources.as_file(ref) as p:
-        prof = load_outline_csv(p, name="60E1")
-    return RailProfile(name="60E1", outline=prof.outline,
+        prof = load_outline_csv(p, name="60E1", smooth=True)  # digitised curves
+    return RailProfile(name="60E1", outline=prof.outline, smooth=True,
                        source="alex-nehls/rolland UIC60_cords_pts @32c5c9d (railfem/data)")
 
 
@@ -229,11 +251,12 @@ def rectangle(width: float, height: float) -> RailProfile:
     w = width / 2
     pts = np.array([[-w, 0.0], [w, 0.0], [w, height], [-w, height]])
     return RailProfile(name=f"rect{width * 1e3:g}x{height * 1e3:g}", outline=pts,
-                       source="railfem.rail.profiles.rectangle")
+                       source="railfem.rail.profiles.rectangle", smooth=False)
 
 
 def get_profile(name_or_path: str) -> RailProfile:
-    """'60E1'/'UIC60', 'rect:WxH' (mm), or a path to an outline CSV in mm."""
+    """'60E1'/'UIC60', 'rect:WxH' (mm), or a path to an outline CSV in mm (a polygon unless
+    the file asks for smoothing, load_outline_csv)."""
     key = str(name_or_path)
     if key.upper() in ("60E1", "UIC60"):
         return uic60()
