@@ -16,6 +16,7 @@ import numpy as np
 from railfem.conventions import QUANTITIES, QUANTITY_ORDER, QUANTITY_UNITS
 from railfem.standards.iec61260 import ThirdOctaveBands
 from railfem.standards.iec61260 import band_average as _band_average
+from railfem.validators import show
 
 __all__ = ["FRF"]
 
@@ -202,7 +203,7 @@ class FRF:
         """
         if not (np.isfinite(ref) and ref > 0.0):
             raise ValueError(
-                f"db reference must be positive and finite (in {self.units}), got {ref!r}."
+                f"db reference must be positive and finite (in {self.units}), got {show(ref)}."
             )
         with np.errstate(divide="ignore"):
             return 20.0 * np.log10(np.abs(self.values) / ref)

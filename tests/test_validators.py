@@ -78,3 +78,20 @@ def test_track_command_refuses_a_missing_support_part(tmp_path, capsys, option, 
     assert code == 2
     assert words in err and "= 0" in err and "> 0" in err and option in err
     assert not out.exists()
+
+
+def test_messages_of_profiles_meshes_and_frfs_show_plain_numbers():
+    from railfem.frf import FRF
+    from railfem.rail import meshing, profiles
+
+    with pytest.raises(ValueError) as err:
+        profiles.rectangle(np.float64(-0.02), np.float64(0.05))
+    assert "got -0.02, 0.05" in str(err.value)
+    with pytest.raises(ValueError) as err:
+        meshing.mesh_profile(profiles.rectangle(0.02, 0.05), np.float64(2.0))
+    assert "got 2.0 " in str(err.value)
+    Y = FRF(frequency=[10.0, 20.0], values=[1.0, 2.0], quantity="mobility",
+            response=("a",), force=("b",))
+    with pytest.raises(ValueError) as err:
+        Y.db(np.float64(-1.0))
+    assert "got -1.0." in str(err.value)

@@ -40,6 +40,7 @@ import numpy as np
 
 from .profiles import (RailProfile, get_profile, half_outline, mirror_deviation,
                        polygon_properties)
+from ..validators import show
 
 log = logging.getLogger(__name__)
 
@@ -339,7 +340,7 @@ def mesh_profile(profile: RailProfile | str = DEFAULT_PROFILE, h: float = DEFAUL
     if isinstance(profile, str):
         profile = get_profile(profile)
     if not (np.isfinite(h) and 0 < h < profile.height):
-        raise ValueError(f"element size h must be in (0, {profile.height:.3g}) m, got {h!r} "
+        raise ValueError(f"element size h must be in (0, {profile.height:.3g}) m, got {show(h)} "
                          "(give metres, e.g. 0.01 for 10 mm)")
     dev = mirror_deviation(profile.outline)
     if symmetric and not profile.symmetric:

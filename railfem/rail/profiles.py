@@ -16,6 +16,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..validators import show
+
 log = logging.getLogger(__name__)
 
 # EN 13674-1:2011 Annex A, profile 60E1: section data used as acceptance values.
@@ -247,7 +249,8 @@ def uic60() -> RailProfile:
 def rectangle(width: float, height: float) -> RailProfile:
     """A width x height bar centred on y = 0 with its underside at z = 0 (m)."""
     if not (width > 0 and height > 0):
-        raise ValueError(f"rectangle width and height must be > 0 m, got {width!r}, {height!r}")
+        raise ValueError(f"rectangle width and height must be > 0 m, got {show(width)}, "
+                         f"{show(height)}")
     w = width / 2
     pts = np.array([[-w, 0.0], [w, 0.0], [w, height], [-w, height]])
     return RailProfile(name=f"rect{width * 1e3:g}x{height * 1e3:g}", outline=pts,
