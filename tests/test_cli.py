@@ -7,9 +7,10 @@ import pytest
 
 from railfem import cli
 from railfem.studies import convergence
-from railfem.jobs import common as jobs
 from railfem.rail import meshing
 from railfem.rail import profiles
+from railfem.rail.quality import format_mesh_quality, mesh_quality
+from railfem.rail.shapes import wave_shapes
 
 
 def read_csv(path):
@@ -33,10 +34,10 @@ def test_mesh_command_writes_mesh_and_quality(tmp_path, capsys):
 
 
 def test_mesh_quality_of_60E1_reports_EN13674_errors():
-    q = jobs.mesh_quality(meshing.mesh_profile("60E1", 0.01))
+    q = mesh_quality(meshing.mesh_profile("60E1", 0.01))
     assert set(q["relative_error_vs_EN13674_1"]) == {"area", "centroid_z", "I_y", "I_z"}
     assert all(abs(e) < 0.005 for e in q["relative_error_vs_EN13674_1"].values())
-    assert "vs EN 13674-1" in jobs.format_mesh_quality(q)
+    assert "vs EN 13674-1" in format_mesh_quality(q)
 
 
 def test_dispersion_command_k_of_omega(tmp_path):
@@ -75,7 +76,7 @@ def test_wave_shapes_are_full_per_node_shapes():
     from railfem.rail import waveguide
 
     g = waveguide.assemble(meshing.mesh_profile(profiles.rectangle(0.02, 0.05), 0.01))
-    shapes = jobs.wave_shapes(g, 1000.0)
+    shapes = wave_shapes(g, 1000.0)
     labels = {s.label for s in shapes}
     assert labels == {"vertical bending", "longitudinal", "lateral bending", "torsion"}
     for s in shapes:

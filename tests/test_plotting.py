@@ -213,7 +213,7 @@ def test_branch_colours_follow_the_wave_type():
 def test_dispersion_job_legend_is_one_entry_per_branch_in_words(tmp_path, monkeypatch):
     """The omega(k) plot of the job used to append a family tag to each label ('... (sym.)
     (symm.)') and to drop the longitudinal branch from the legend."""
-    from railfem.jobs import common as jobs
+    from railfem.jobs.dispersion import run_dispersion
 
     seen = {}
     save = plotting.save_figure
@@ -224,14 +224,14 @@ def test_dispersion_job_legend_is_one_entry_per_branch_in_words(tmp_path, monkey
         return save(fig, path, **kw)
 
     monkeypatch.setattr(plotting, "save_figure", capture)
-    jobs.run_dispersion("rect:20x50", 0.01, tmp_path / "wk", k_values=np.linspace(0.2, 20, 12),
-                        n_modes=4, render_frequency=None)
+    run_dispersion("rect:20x50", 0.01, tmp_path / "wk", k_values=np.linspace(0.2, 20, 12),
+                   n_modes=4, render_frequency=None)
     legend = seen["dispersion.png"]
     assert "longitudinal" in legend
     assert len(legend) == len(set(legend))
     assert not any("(symm.)" in t or "(anti.)" in t or t.count("sym") > 1 for t in legend)
-    jobs.run_dispersion("rect:20x50", 0.01, tmp_path / "kw",
-                        frequencies=np.geomspace(100, 3000, 12), render_frequency=None)
+    run_dispersion("rect:20x50", 0.01, tmp_path / "kw",
+                   frequencies=np.geomspace(100, 3000, 12), render_frequency=None)
     assert {"longitudinal", "vertical bending", "lateral bending", "torsion"} <= set(
         seen["dispersion.png"])
 

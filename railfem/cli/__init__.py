@@ -12,8 +12,8 @@
     railfem study passby --out DIR                          TDR and roughness error study
 
 Lengths on the command line are in mm (element sizes), frequencies in Hz, wavenumbers in
-rad/m. Each subcommand parses its arguments and calls one function of
-:mod:`railfem.jobs.common`; progress and messages go to stderr. Bad input (unknown profile,
+rad/m. Each subcommand parses its arguments and calls one job function (one module per
+command in :mod:`railfem.jobs`); progress and messages go to stderr. Bad input (unknown profile,
 unreadable file, impossible values) ends with a one-line message and exit code 2.
 
 New subcommands register in ``COMMANDS`` (name -> (add_arguments, run, help)). The

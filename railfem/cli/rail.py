@@ -23,15 +23,15 @@ def mesh_args(p: argparse.ArgumentParser) -> None:
 
 
 def mesh_run(args) -> int:
-    from ..jobs import common as jobs
+    from ..jobs.mesh import run_mesh, run_shipped_meshes
+    from ..rail.quality import format_mesh_quality
 
     if args.shipped:
-        results = jobs.run_shipped_meshes(args.out, progress=jobs.progress_logger("meshes"))
-        for r in results:
-            sys.stdout.write(jobs.format_mesh_quality(r["quality"]))
+        for r in run_shipped_meshes(args.out):
+            sys.stdout.write(format_mesh_quality(r["quality"]))
         return 0
-    r = jobs.run_mesh(args.profile, args.h * 1e-3, args.out or Path("."))
-    sys.stdout.write(jobs.format_mesh_quality(r["quality"]))
+    r = run_mesh(args.profile, args.h * 1e-3, args.out or Path("."))
+    sys.stdout.write(format_mesh_quality(r["quality"]))
     sys.stdout.write(f"wrote {r['mesh']}, {r['json']}, {r['txt']}\n")
     return 0
 
@@ -74,7 +74,7 @@ def dispersion_args(p: argparse.ArgumentParser) -> None:
 
 
 def dispersion_run(args) -> int:
-    from ..jobs import common as jobs
+    from ..jobs.dispersion import DEFAULT_RENDER_FREQUENCY, run_dispersion
 
     freq_opts = any(v is not None for v in (args.fmin, args.fmax, args.n))
     if args.k_range is not None and (freq_opts or args.frequencies is not None):
@@ -101,14 +101,14 @@ def dispersion_run(args) -> int:
     if args.no_render:
         render = None
     else:
-        render = (jobs.DEFAULT_RENDER_FREQUENCY if args.render_frequency is None
+        render = (DEFAULT_RENDER_FREQUENCY if args.render_frequency is None
                   else args.render_frequency)
-    paths = jobs.run_dispersion(args.profile, args.h * 1e-3, args.out, frequencies=frequencies,
-                                k_values=k_values, mesh_file=args.mesh,
-                                mesh_units=args.mesh_units, mesh_axes=args.mesh_axes,
-                                loss_factor=args.loss_factor, method=args.method,
-                                n_waves=args.n_waves, n_modes=args.n_modes,
-                                render_frequency=render)
+    paths = run_dispersion(args.profile, args.h * 1e-3, args.out, frequencies=frequencies,
+                           k_values=k_values, mesh_file=args.mesh,
+                           mesh_units=args.mesh_units, mesh_axes=args.mesh_axes,
+                           loss_factor=args.loss_factor, method=args.method,
+                           n_waves=args.n_waves, n_modes=args.n_modes,
+                           render_frequency=render)
     report_written([paths["csv"], paths["png"], *paths["renders"]])
     return 0
 
@@ -130,19 +130,19 @@ def convergence_args(p: argparse.ArgumentParser) -> None:
                         "their straight-sided twins, or both (straight in "
                         "convergence_straight.*)")
     p.add_argument("--shipped", action="store_true",
-                   help="use the shipped meshes (railfem/data/meshes/) where there is one for the size "
-                        "instead of meshing afresh")
+                   help="use the shipped meshes (railfem/data/meshes/) where there is one "
+                        "for the size instead of meshing afresh")
     p.add_argument("--out", type=Path, default=Path("railfem-output/convergence"),
                    metavar="DIR", help="output folder (default railfem-output/convergence)")
 
 
 def convergence_run(args) -> int:
-    from ..jobs import common as jobs
+    from ..jobs.convergence import run_convergence
 
     sizes = np.array(args.sizes) * 1e-3
-    paths = jobs.run_convergence(args.profile, sizes, args.out, frequencies=args.frequencies,
-                                 n_cut_on=args.n_cut_on, reference=args.reference,
-                                 geometry=args.geometry, use_shipped=args.shipped)
+    paths = run_convergence(args.profile, sizes, args.out, frequencies=args.frequencies,
+                            n_cut_on=args.n_cut_on, reference=args.reference,
+                            geometry=args.geometry, use_shipped=args.shipped)
     for suffix in ("", "_straight"):
         if f"study{suffix}" not in paths:
             continue

@@ -8,8 +8,8 @@ import time
 import numpy as np
 
 from ..rail import waveguide
-from ..atomic import prepare_output_dir
-from .common import load_or_mesh, progress_logger, write_text_atomic
+from ..atomic import prepare_output_dir, write_text_atomic
+from .common import load_or_mesh, progress_logger
 from ..materials import Material
 
 log = logging.getLogger(__name__)
