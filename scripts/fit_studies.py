@@ -28,7 +28,8 @@ SIX = ("kp", "eta_p", "kb", "eta_b", "eta_r", "ms")
 
 
 def refsim(out: Path):
-    from railfem.jobs.fit import comparison_table, write_fit
+    from railfem.identify.compare import comparison_table
+    from railfem.jobs.fit import write_fit
     from railfem.identify import fit
     from railfem.io import read_measurement
 
@@ -55,7 +56,8 @@ def refsim(out: Path):
 
 
 def practice(out: Path):
-    from railfem.jobs.fit import comparison_table, write_fit
+    from railfem.identify.compare import comparison_table
+    from railfem.jobs.fit import write_fit
     from railfem.identify import fit
     from railfem.io import read_measurement
 

@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 
 import railfem as rf
-from railfem.jobs.fit import read_data
+from railfem.io.data import read_data
 from railfem.identify import fit
 from railfem.identify.data import decay_rate_target
 from railfem.identify.forward import ForwardModel, Geometry

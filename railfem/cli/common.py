@@ -1,5 +1,6 @@
 """What the subcommands share: argument types, the profile and mesh-file options, the
-CLI's own error (:class:`BadInput`) and the ``wrote PATH`` lines."""
+``--use`` list of a fit, the CLI's own error (:class:`BadInput`) and the ``wrote PATH``
+lines."""
 from __future__ import annotations
 
 import argparse
@@ -40,6 +41,17 @@ def count(text: str) -> int:
 
 def index(text: str) -> int:
     return _number(text, int, ok=lambda v: v >= 0, expected="an integer >= 0 (0-based)")
+
+
+def parse_use(text: str) -> tuple[str, ...]:
+    """'point,tdr' -> ('point', 'tdr'): the quantities a fit uses (railfem.identify.data)."""
+    from ..identify.data import QUANTITIES
+
+    use = tuple(x.strip() for x in text.split(",") if x.strip())
+    bad = [u for u in use if u not in QUANTITIES]
+    if bad or not use:
+        raise ValueError(f"--use {text!r}: give a comma list of {', '.join(QUANTITIES)}")
+    return use
 
 
 def add_profile(p: argparse.ArgumentParser, h_default: float | None = 10.0) -> None:

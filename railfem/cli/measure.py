@@ -5,7 +5,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from .common import count, finite, index, non_negative, positive, report_written
+from .common import count, finite, index, non_negative, parse_use, positive, report_written
 
 
 # ------------------------------------------------------------ pass-by decay rate
@@ -94,7 +94,8 @@ def tdr_run(args) -> int:
         exclusion = NoiseFloorExclusion(
             threshold_db=args.threshold_db,
             floor_drop_db=None if args.plain_threshold else args.floor_drop_db,
-            attenuation_range=None if args.attenuation_range is None else tuple(args.attenuation_range))
+            attenuation_range=(None if args.attenuation_range is None
+                               else tuple(args.attenuation_range)))
     s = run_tdr_hammer(args.data, args.out, exclusion=exclusion, point=args.point,
                        sensors=args.sensor)
     for name, r in s["decay_rate"].items():
@@ -146,7 +147,7 @@ def fit_args(p: argparse.ArgumentParser) -> None:
 
 
 def fit_run(args) -> int:
-    from ..jobs.fit import parse_use, run_fit
+    from ..jobs.fit import run_fit
     from ..spec import preset
 
     use = parse_use(args.use) if args.use else None

@@ -89,8 +89,9 @@ def track_spec_from_args(args):
     """(TrackSpec, JobSettings) from the track options: preset < config < options."""
     from dataclasses import replace
 
+    from ..io.config import read_track_config
+    from ..jobs.track import job_from_dict
     from ..spec import preset, spec_from_dict
-    from ..jobs.track import job_from_dict, read_config
 
     if args.config is not None and args.from_run is not None:
         raise BadInput("give either --config or --from-run, not both")
@@ -98,11 +99,17 @@ def track_spec_from_args(args):
     spacing = _mm("--spacing", args.spacing, 100.0, 2000.0, "600")
     pad = _mm("--pad-length", args.pad_length, 1.0, 1000.0, "150")
     source = args.config if args.config is not None else args.from_run
-    spec_d, job_d = read_config(source) if source is not None else ({}, {})
+    spec_d, job_d = read_track_config(source) if source is not None else ({}, {})
     if args.preset:  # an explicit --preset is the base, whatever the config names
         spec_d = {k: x for k, x in spec_d.items() if k != "preset"}
-    spec = spec_from_dict(spec_d, base=preset(args.preset) if args.preset else None)
-    job = job_from_dict(job_d)
+    try:
+        spec = spec_from_dict(spec_d, base=preset(args.preset) if args.preset else None)
+        job = job_from_dict(job_d)
+    except (ValueError, KeyError) as exc:
+        if source is None:
+            raise
+        msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
+        raise BadInput(f"config {source}: {msg}") from None
     sup = {k: x for k, x in (("kp", args.kp), ("kb", args.kb)) if x is not None}
     sup = {k: x * 1e6 for k, x in sup.items()}
     sup.update({k: x for k, x in (("eta_p", args.eta_p), ("eta_b", args.eta_b),

@@ -1,6 +1,9 @@
 """Reading and writing measurements (an edge of the package: the core never imports it).
 
-* :func:`read_measurement` — a dataset folder or a TOML descriptor (:mod:`.config`);
+* :func:`data_kind` / :func:`read_data` — what a DATA path is (hammer measurement, decay-rate
+  table, pass-by recordings) and reading it; :func:`read_measurement` — a dataset folder or
+  a TOML descriptor (:mod:`.data`);
+* :func:`read_toml` — every TOML file, errors naming file and line (:mod:`.config`);
 * :func:`read_dataset` / :func:`write_dataset` — dataset folders, ``frf.csv`` + ``meta.json``
   (:mod:`.dataset`);
 * :func:`read_frf_table` with a :class:`ColumnMapping` — complex FRFs from any table, re/im or
@@ -17,7 +20,8 @@ Malformed input raises a subclass of :class:`MeasurementFileError` (a ``ValueErr
 names the file, the line/column/key, the value and the fix.
 """
 from railfem.io.frf_csv import FRFFileError, read_frf_csv, write_frf_csv
-from railfem.io.config import read_descriptor, read_measurement
+from railfem.io.config import read_descriptor, read_toml, read_track_config
+from railfem.io.data import data_kind, read_data, read_measurement
 from railfem.io.dataset import read_dataset, write_dataset
 from railfem.io.errors import (FrequencyAxisError, MalformedFileError, MeasurementFileError,
                                MissingPositionError, NonFiniteValueError, UnknownQuantityError,
@@ -29,7 +33,8 @@ from railfem.io.tdr_table import (SBB_NIEDERWANGEN_COLUMNS, read_decay_rate_tabl
 from railfem.io.uff58 import read_uff58
 
 __all__ = [
-    "read_measurement", "read_descriptor", "read_dataset", "write_dataset", "read_frf_table",
+    "read_measurement", "read_descriptor", "read_toml", "read_track_config", "data_kind",
+    "read_data", "read_dataset", "write_dataset", "read_frf_table",
     "Channel", "ColumnMapping", "read_uff58", "hammer_measurement", "read_decay_rate_table",
     "write_decay_rate_table", "SBB_NIEDERWANGEN_COLUMNS", "read_frf_csv", "write_frf_csv",
     "FRFFileError", "MeasurementFileError", "MalformedFileError", "NonFiniteValueError",

@@ -1,8 +1,11 @@
-"""Hammer measurements described by a TOML file, and one entry point for every format.
+"""TOML files: the one reader (:func:`read_toml`), hammer-measurement descriptors and track
+configs.
 
-:func:`read_measurement` reads a dataset folder (``frf.csv`` + ``meta.json``) or a TOML
-descriptor that points to a plain CSV table or a UFF 58 file and adds what those files do not
-hold (geometry, sensors, metadata)::
+:func:`read_toml` reads any TOML file railfem takes (descriptors, configs, recording
+sidecars) with errors that name the file, the line and the column. :func:`read_descriptor`
+reads a TOML descriptor that points to a plain CSV table or a UFF 58 file and adds what
+those files do not hold (geometry, sensors, metadata); :func:`railfem.io.data.read_measurement`
+takes a descriptor or a dataset folder::
 
     file = "export.uff"          # relative to the descriptor
     format = "uff58"             # or "csv"; default from the suffix (.uff/.unv, .csv/.txt)
@@ -29,14 +32,18 @@ hold (geometry, sensors, metadata)::
     frequency = "f"
     form = "re_im"
     channels = [{sensor = "head", force = "p0", columns = ["H0 re", "H0 im"]}]
+
+:func:`read_track_config` reads the config of ``railfem track`` (a TOML file, or the
+``config`` section of the ``run.json`` of an earlier run).
 """
 from __future__ import annotations
 
+import json
 import os
+import re
 import tomllib
 from pathlib import Path
 
-from railfem.io.dataset import META_FILE, read_dataset
 from railfem.io.errors import MalformedFileError, file_error
 from railfem.io.frf_table import Channel, ColumnMapping, read_frf_table
 from railfem.io.hammer import hammer_measurement
@@ -44,7 +51,7 @@ from railfem.io.text import read_text
 from railfem.io.uff58 import read_uff58
 from railfem.measurement import HammerMeasurement, Metadata, Sensor
 
-__all__ = ["read_measurement", "read_descriptor", "FORMATS"]
+__all__ = ["read_toml", "read_descriptor", "read_track_config", "FORMATS"]
 
 FORMATS = {".uff": "uff58", ".unv": "uff58", ".csv": "csv", ".txt": "csv"}
 _TOP = {"file", "format", "sleeper_spacing_m", "sensor_x_m", "excitation", "rail", "unit",
@@ -54,22 +61,42 @@ _CSV = {"frequency", "frequency_unit", "form", "phase_unit", "db_reference", "ti
         "delimiter", "channels"}
 
 
-def read_measurement(path: str | os.PathLike, **options) -> HammerMeasurement:
-    """A hammer measurement from a dataset folder or a TOML descriptor (``.toml``).
+_AT = re.compile(r"\s*\(at line (\d+), column (\d+)\)\s*$")
 
-    ``options`` go to :func:`railfem.io.dataset.read_dataset` (e.g. ``quantity``).
-    """
+
+def read_toml(path: str | os.PathLike) -> dict:
+    """The TOML file ``path`` as a dict. Errors (:class:`MalformedFileError`, a ValueError)
+    name the file and, for a syntax error, the line and column."""
+    path = Path(path)
+    try:
+        return tomllib.loads(read_text(path))
+    except tomllib.TOMLDecodeError as err:
+        msg = str(err)
+        at = _AT.search(msg)
+        where = f"line {at.group(1)}, column {at.group(2)}" if at else None
+        raise file_error(MalformedFileError, path, where,
+                         f"invalid TOML ({_AT.sub('', msg) if at else msg})",
+                         "fix the TOML syntax") from None
+
+
+def read_track_config(path) -> tuple[dict, dict]:
+    """(spec dict, job dict) of a ``railfem track`` config: a TOML file (its ``[job]`` table
+    is the job dict), the ``run.json`` of an earlier run, or the folder holding it."""
     path = Path(path)
     if path.is_dir():
-        return read_dataset(path, **options)
-    if path.suffix.lower() == ".toml":
-        return read_descriptor(path, **options)
-    hint = (f"a dataset folder (frf.csv + {META_FILE}) or a .toml descriptor that points to "
-            "the file and gives the hammer positions (see railfem.io.config)")
-    if not path.exists():
-        raise file_error(MalformedFileError, path, None, "not found", f"give {hint}")
-    raise file_error(MalformedFileError, path, None,
-                     "holds FRFs but no hammer geometry", f"give {hint}")
+        path = path / "run.json"
+    if path.suffix != ".json":
+        data = read_toml(path)
+        job = data.pop("job", {})
+        return data, job
+    try:
+        data = json.loads(read_text(path))["config"]
+        return data["spec"], data.get("job", {})
+    except (json.JSONDecodeError, KeyError, TypeError):
+        raise file_error(MalformedFileError, path, "key 'config'",
+                         "not a run.json of 'railfem track' (no 'config' section)",
+                         "give the run.json of a 'railfem track' run or a TOML config"
+                         ) from None
 
 
 def _section(path, d: dict, name: str, allowed: set) -> dict:
@@ -86,11 +113,7 @@ def _section(path, d: dict, name: str, allowed: set) -> dict:
 def read_descriptor(path: str | os.PathLike, *, quantity: str | None = None) -> HammerMeasurement:
     """Read the measurement a TOML descriptor describes (see the module docstring)."""
     path = Path(path)
-    try:
-        d = tomllib.loads(read_text(path))
-    except tomllib.TOMLDecodeError as err:
-        raise file_error(MalformedFileError, path, None, f"invalid TOML ({err})",
-                         "fix the TOML syntax") from None
+    d = read_toml(path)
     _section(path, d, "top level", _TOP)
     for key in ("file", "sleeper_spacing_m", "positions_m"):
         if key not in d:

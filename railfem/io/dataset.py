@@ -141,7 +141,8 @@ def _positions(path, meta: dict) -> np.ndarray:
 
 def _sensors(path, meta: dict, direction: str) -> tuple[float | None, dict, dict]:
     """(sensor x, {name: Sensor}, other sensor entries kept as notes)."""
-    s = _need(path, meta, "sensor", fix=f"add 'sensor': {{'x_m': ..., 'head': {{...}}}} to {META_FILE}")
+    s = _need(path, meta, "sensor",
+              fix=f"add 'sensor': {{'x_m': ..., 'head': {{...}}}} to {META_FILE}")
     if not isinstance(s, dict):
         raise file_error(MalformedFileError, path, "key 'sensor'", "not a JSON object",
                          "describe the sensor as an object", value=s)

@@ -16,18 +16,18 @@ File layout (UTF-8, comma separated, one frequency per data row)::
   ``, | # ;`` or line breaks.
 * Numbers are written with 17 significant digits, so write-then-read is bit-identical.
 
-Writes are atomic: the file is written to a temporary file in the same directory and moved
-into place with ``os.replace``, so a reader never sees a half-written file.
+Writes are atomic (:func:`railfem.atomic.atomic_path`: a temporary file in the same
+directory moved into place when complete), so a reader never sees a half-written file.
 """
 
 from __future__ import annotations
 
 import os
-import tempfile
 from pathlib import Path
 
 import numpy as np
 
+from railfem.atomic import atomic_path
 from railfem.conventions import QUANTITIES, QUANTITY_UNITS
 from railfem.frf import FRF
 
@@ -82,24 +82,14 @@ def write_frf_csv(path: str | os.PathLike, frf: FRF, *, comments=()) -> Path:
     table[:, 1::2] = flat.real
     table[:, 2::2] = flat.imag
 
-    directory = path.parent if str(path.parent) else Path(".")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
-    try:
-        # mkstemp makes the file private (0600); keep an existing file's mode, else 0644
-        os.chmod(tmp, path.stat().st_mode & 0o777 if path.exists() else 0o644)
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
+    # an existing file keeps its permissions; a new one gets the usual ones
+    mode = path.stat().st_mode & 0o777 if path.exists() else None
+    with atomic_path(path, mode=mode) as tmp:
+        with open(tmp, "w", encoding="utf-8", newline="\n") as fh:
             fh.write("\n".join(lines) + "\n")
             np.savetxt(fh, table, fmt="%.17g", delimiter=",")
             fh.flush()
             os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        # never leave a stray temporary file next to the target
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
     return path
 
 

@@ -38,11 +38,11 @@ from __future__ import annotations
 import io
 import json
 import math
-import tomllib
 from pathlib import Path
 
 import numpy as np
 
+from railfem.io.config import read_toml
 from railfem.recording import QUANTITY_UNITS, Channel, Recording
 
 __all__ = ["FORMAT_TAG", "read_recording", "write_recording", "sidecar_path",
@@ -83,13 +83,12 @@ def truth_path(path) -> Path:
 
 
 def _read_sidecar(path: Path) -> dict:
+    if path.suffix == ".toml":
+        return read_toml(path)
     try:
-        if path.suffix == ".toml":
-            with open(path, "rb") as fh:
-                return tomllib.load(fh)
         with open(path, encoding="utf-8") as fh:
             data = json.load(fh)
-    except (tomllib.TOMLDecodeError, json.JSONDecodeError) as exc:
+    except json.JSONDecodeError as exc:
         raise ValueError(f"metadata file {path} is not valid {path.suffix[1:].upper()}: "
                          f"{exc}") from None
     except OSError as exc:

@@ -92,7 +92,8 @@ def number(path, where: str, text: str, *, missing_ok: bool = False) -> float:
                          "write plain decimal numbers", value=text) from None
     if not math.isfinite(x):
         raise file_error(NonFiniteValueError, path, where, "non-finite value",
-                         "give a finite number" + (" or leave the cell empty" if missing_ok else ""),
+                         "give a finite number"
+                         + (" or leave the cell empty" if missing_ok else ""),
                          value=text)
     return x
 

@@ -64,27 +64,21 @@ def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
     """Diagnose DATA and write the report(s) to ``out_dir``; returns the run record.
     DATA: a hammer dataset folder or descriptor, a decay-rate table, or a list of pass-by
     recordings (``passby``: options of passby_rows)."""
-    from .fit import read_data
+    from ..io.data import data_kind, read_data
 
     t0 = time.perf_counter()
     if effects not in (None, "all"):
         for n in effects:
             library.get(n)
     paths = [Path(p) for p in (data if isinstance(data, (list, tuple)) else [data])]
-    recs = [p for p in paths if p.suffix.lower() in RECORDING_SUFFIXES]
-    if recs and len(recs) != len(paths):
-        raise ValueError(f"DATA mixes pass-by recordings ({', '.join(map(str, recs))}) with "
-                         "other data; diagnose them separately")
-    if not recs and len(paths) != 1:
-        raise ValueError(f"{len(paths)} DATA given: several are allowed for pass-by "
-                         "recordings (.npz/.wav) only; give one dataset folder, descriptor "
-                         "or decay-rate table")
+    kind = data_kind(paths)
+    recs = paths if kind == "passby" else []
     if recs:
-        kind, items = "passby", passby_rows(recs, **(passby or {}))
+        items = passby_rows(recs, **(passby or {}))
     else:
         data = paths[0]
-        kind, items = read_data(data, select=select, campaign=True) if not data.is_dir() \
-            and data.suffix.lower() != ".toml" else read_data(data)
+        kind, items = (read_data(data, select=select, campaign=True) if kind == "table"
+                       else read_data(data))
     out = prepare_output_dir(out_dir, "diagnose")
     jobs = []
     if kind == "hammer":
@@ -117,9 +111,6 @@ def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
     record["runtime_s"] = time.perf_counter() - t0
     write_text(out / "run.json", json.dumps(record, indent=2, default=_json) + "\n")
     return record
-
-
-RECORDING_SUFFIXES = (".npz", ".wav")
 
 
 def passby_rows(paths, *, method: str = "energy", channel: str | None = None,
@@ -291,7 +282,8 @@ def markdown(s: dict, figs: list[str], title: str) -> str:
         L += ["", f"Held-out error (mean squared scaled residual) {h['mse_ref']:.3g} -> "
               f"{h['mse']:.3g} ({100 * h['reduction']:.0f} % lower, paired t = {h['t']:.2f}, "
               f"p = {h['p']:.2g} (t-test or Wilcoxon, x2), {h['blocks']} blocks).", "",
-              f"Residual RMS (dB) after, fitted: {json.dumps(_round(c['residual_rms_db']['fit']))}; "
+              "Residual RMS (dB) after, fitted: "
+              f"{json.dumps(_round(c['residual_rms_db']['fit']))}; "
               f"held out: {json.dumps(_round(c['residual_rms_db']['held']))}. Structure test "
               f"after: **{c['structure_test']['verdict']}** (structured part "
               f"{c['structure_test']['structured_rms_db']:.2f} dB)."]
@@ -347,7 +339,8 @@ def figures(out: Path, d) -> list[str]:
         files.append(str(save_figure(ax, out / "residual_point.png")))
         tr = rb.select(part="fit", quantity="transfer")[0]
         bands = _bands(d)
-        pick = [c for c in (100, 250, 630, 1600, 4000) if bands.lower.min() <= c <= bands.upper.max()]
+        pick = [c for c in (100, 250, 630, 1600, 4000)
+                if bands.lower.min() <= c <= bands.upper.max()]
         cols, labs = [], []
         for c in pick:
             k = int(np.argmin(np.abs(bands.nominal - c)))

@@ -15,7 +15,9 @@ atomically:
 
 A campaign (``campaign=True``: every selected row of a table) fits the rows on a Dask
 cluster (``scheduler`` address, or a LocalCluster) and writes one sub-folder per row plus
-``campaign.csv`` / ``campaign.json``.
+``campaign.csv`` / ``campaign.json``. What DATA is, is decided by railfem.io.data; the
+campaign and model comparison are library functions (railfem.identify.campaign,
+railfem.identify.compare).
 """
 from __future__ import annotations
 
@@ -27,76 +29,12 @@ from pathlib import Path
 import numpy as np
 
 from ..atomic import prepare_output_dir, write_text_atomic
-from ..identify.fit import (
-    CHI2_95, DEFAULT_PARAMETERS, FIT_BOUNDS, PROFILED, Problem, base_spec, default_workers, fit,
-    prebuild_nodes,
-)
-from ..identify.data import QUANTITIES, decay_rate_target, model_quantities
-from ..identify.forward import ForwardModel, Geometry
-from ..params import ParameterSpace
+from ..identify.campaign import fit_campaign
+from ..identify.data import model_quantities
+from ..identify.fit import CHI2_95, DEFAULT_PARAMETERS, PROFILED, fit
+from ..io.data import read_data
 
 log = logging.getLogger(__name__)
-
-SELECT_KEYS = {"dir": "direction", "direction": "direction", "sec": "section",
-               "section": "section", "date": "date", "rail": "rail_side",
-               "rail_side": "rail_side", "side": "rail_side"}
-
-
-def parse_select(text: str | None) -> dict:
-    """'dir=v,sec=B5' -> {'direction': 'v', 'section': 'B5'} (values may be a|b lists)."""
-    out: dict = {}
-    for item in (text or "").split(","):
-        if not item.strip():
-            continue
-        key, sep, value = item.partition("=")
-        key = key.strip().lower()
-        if not sep or key not in SELECT_KEYS or not value.strip():
-            raise ValueError(f"--select item {item!r}: write KEY=VALUE with KEY one of "
-                             f"{', '.join(sorted(SELECT_KEYS))}, e.g. dir=v,sec=B5")
-        vals = [v.strip() for v in value.split("|")]
-        out[SELECT_KEYS[key]] = vals[0] if len(vals) == 1 else vals
-    return out
-
-
-def parse_use(text: str) -> tuple[str, ...]:
-    use = tuple(x.strip() for x in text.split(",") if x.strip())
-    bad = [u for u in use if u not in QUANTITIES]
-    if bad or not use:
-        raise ValueError(f"--use {text!r}: give a comma list of {', '.join(QUANTITIES)}")
-    return use
-
-
-def read_data(path, *, select=None, row=None, campaign=False):
-    """(kind, items): ('hammer', [measurement]) or ('table', [(row index, measurement)])."""
-    from ..io import SBB_NIEDERWANGEN_COLUMNS, read_decay_rate_table, read_measurement
-
-    path = Path(path)
-    if not path.exists():
-        raise ValueError(f"DATA {path} does not exist; give a dataset folder, a .toml "
-                         "descriptor or a decay-rate table (.csv)")
-    if path.is_dir() or path.suffix.lower() == ".toml":
-        if select or row is not None or campaign:
-            raise ValueError("--select, --row and --campaign apply to decay-rate tables; "
-                             f"{path} is a hammer measurement")
-        return "hammer", [read_measurement(path)]
-    head = path.read_text(encoding="utf-8", errors="replace")[:4096]
-    columns = SBB_NIEDERWANGEN_COLUMNS if "messdatum" in head else None
-    table = read_decay_rate_table(path, columns=columns)
-    index = np.arange(len(table))
-    crit = parse_select(select) if isinstance(select, str) else dict(select or {})
-    if crit:
-        keep = table.select(**crit)
-        index = np.array([i for i in range(len(table))
-                          if any(table.metadata[i] is m for m in keep.metadata)])
-    if row is not None:
-        if not 0 <= row < len(index):
-            raise ValueError(f"--row {row}: the selection has {len(index)} rows (0.."
-                             f"{len(index) - 1})")
-        index = index[[row]]
-    if not campaign and len(index) != 1:
-        raise ValueError(f"the selection holds {len(index)} rows; pick one with --row N or "
-                         "--select, or fit them all with --campaign")
-    return "table", [(int(i), table.row(int(i))) for i in index]
 
 
 def run_fit(data, out_dir, *, model: str = "wfe-discrete", use=None,
@@ -116,7 +54,7 @@ def run_fit(data, out_dir, *, model: str = "wfe-discrete", use=None,
     if kind == "hammer":
         target_options = {"transfer_positions": transfer_positions, "f_range": f_range}
         res = fit(items[0], use=use or ("point", "transfer", "tdr"), base=base,
-                         workers=workers, target_options=target_options, **opts)
+                  workers=workers, target_options=target_options, **opts)
         record["files"] = write_fit(out, res)
         record["result"] = _short(res)
     elif not campaign:
@@ -152,74 +90,6 @@ def _short(res) -> dict:
 
 
 # ------------------------------------------------------------------ campaigns
-
-
-def _campaign_fit(forward, meas, opts):
-    from threadpoolctl import threadpool_limits
-
-    with threadpool_limits(1):
-        res = fit(meas, forward=forward, workers=1, **opts)
-    return res
-
-
-def fit_campaign(items, *, scheduler=None, base=None, workers=None, model="wfe-discrete",
-                 parameters=DEFAULT_PARAMETERS, slow_nodes=None, slow_refine=None,
-                 cache=None, **opts):
-    """Fit every (index, DecayRateMeasurement) of ``items`` on a Dask cluster (the address
-    ``scheduler`` or a LocalCluster of ``workers`` processes, one thread each). Rows on the
-    same bands share one forward model: its kernels (and, for a kernel parameter, the
-    profile nodes) are computed once here and scattered to the workers. Returns
-    [(index, measurement, FitResult)] in the order given."""
-    from dask.distributed import Client, LocalCluster, as_completed
-
-    first = items[0][1]
-    spec0 = base_spec(first, model, base)
-    b = {n: FIT_BOUNDS[n] for n in parameters if n in FIT_BOUNDS}
-    space = ParameterSpace(spec0, parameters, bounds=b)
-    target = decay_rate_target(first, spec0.spacing)
-    geometry = Geometry(frequency=target.frequency, outputs=target.outputs,
-                        sensor_x=target.sensor_x, force_x=target.force_x)
-    forward = ForwardModel(space, geometry, cache=cache)
-    beam = model.startswith("timoshenko")
-    slow_nodes = slow_nodes or (5 if beam else 6)
-    slow_refine = (3 if beam else 0) if slow_refine is None else slow_refine
-    nw = workers or default_workers()
-    slow = [n for n in space.names if n in forward.slow]
-    if slow:  # the profile nodes every row uses, built once (in processes)
-        i = space.names.index(slow[0])
-        nodes = np.linspace(space.lower[i], space.upper[i], slow_nodes + 2)[1:-1]
-        x = np.clip(space.from_spec(space.base), space.lower, space.upper)
-        problem = Problem(target=target, forward=forward)
-        prebuild_nodes(problem, nodes, i, x, nw)
-    opts.update(slow_nodes=slow_nodes, slow_refine=slow_refine)
-    for _, m in items:
-        if not np.array_equal(m.frequency, first.frequency):
-            raise ValueError("campaign rows must share the bands of the first row")
-    if scheduler:
-        client = Client(scheduler)
-        cluster = None
-    else:
-        cluster = LocalCluster(n_workers=nw, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
-        client = Client(cluster)
-    try:
-        fwd = client.scatter(forward, broadcast=True)
-        futs = {client.submit(_campaign_fit, fwd, m, opts, pure=False): k
-                for k, (_, m) in enumerate(items)}
-        results = [None] * len(items)
-        t0 = time.perf_counter()
-        for n, fut in enumerate(as_completed(futs), 1):
-            k = futs[fut]
-            results[k] = fut.result()
-            md = items[k][1].metadata
-            log.info("campaign: row %d (%s %s %s) done, %d/%d, %.0f s", items[k][0],
-                     md.section, md.date, md.rail_side, n, len(items),
-                     time.perf_counter() - t0)
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()
-    return [(i, m, r) for (i, m), r in zip(items, results)]
 
 
 def write_campaign(out: Path, rows) -> list:
@@ -344,31 +214,3 @@ def _plot_profiles(path, res):
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
     return plotting.save_figure(fig, path)
-
-
-def compare_models(data, models=("wfe-discrete", "wfe-periodic", "timoshenko-discrete",
-                                 "timoshenko-continuous"), **fit_options) -> dict:
-    """The same data fitted with each model: {model: FitResult}. Identified stiffnesses
-    differ between models because each model lacks different physics; that difference is
-    the model dependence of the identification (docs/identification.md)."""
-    out = {}
-    for m in models:
-        log.info("model comparison: fitting %s", m)
-        out[m] = fit(data, m, **fit_options)
-    return out
-
-
-def comparison_table(results: dict) -> str:
-    """A text table: per model, each parameter with its 95 % interval and identifiability,
-    and the residual RMS per quantity."""
-    names = next(iter(results.values())).names
-    lines = ["model".ljust(24) + "".join(n.ljust(30) for n in names) + "residual RMS (dB)"]
-    for m, r in results.items():
-        cells = []
-        for n in names:
-            p = r.parameter(n)
-            cells.append(f"{p['value']:.3g} [{p['ci95'][0]:.2g},{p['ci95'][1]:.2g}] "
-                         f"{p['identifiable'][0]}".ljust(30))
-        rms = ", ".join(f"{q} {v:.2f}" for q, v in r.residual_rms.items())
-        lines.append(m.ljust(24) + "".join(cells) + rms)
-    return "\n".join(lines)

@@ -18,7 +18,6 @@ import json
 import logging
 import math
 import time
-import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -53,11 +52,10 @@ DEFAULTS = dict(preset="site", model="wfe-discrete", speed_kmh=216.0, train=None
 
 def read_config(path) -> dict:
     """Keyword arguments of run_passby from a TOML file (unknown keys are an error)."""
+    from ..io.config import read_toml
+
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"{path}: not valid TOML: {exc}") from None
+    data = read_toml(path)
     unknown = set(data) - set(DEFAULTS)
     if unknown:
         raise ValueError(f"{path}: unknown keys {sorted(unknown)}; valid keys: "

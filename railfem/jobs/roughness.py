@@ -46,9 +46,9 @@ def resolve_track(text: str, model: str | None = None):
                              "such file (TOML spec, railfem track run.json, railfem fit "
                              "fit.json)")
         if path.suffix == ".toml":
-            from .track import read_config
+            from ..io.config import read_track_config
 
-            spec = spec_from_dict(read_config(path)[0])
+            spec = spec_from_dict(read_track_config(path)[0])
         else:
             try:
                 data = json.loads(path.read_text())

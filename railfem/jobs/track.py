@@ -11,9 +11,7 @@ from __future__ import annotations
 import json
 import logging
 import time
-import tomllib
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 
@@ -73,30 +71,6 @@ def job_from_dict(d: dict, base: JobSettings | None = None) -> JobSettings:
             raise ValueError(f"job.{k} = {x!r}: give a number")
         out[k] = tuple(x) if k == "along_frequencies" else float(x)
     return replace(base, **out)
-
-
-def read_config(path) -> tuple[dict, dict]:
-    """(spec dict, job dict) of a TOML config file or of a run.json written by this job."""
-    path = Path(path)
-    if path.is_dir():
-        path = path / "run.json"
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise ValueError(f"cannot read config {path}: {exc.strerror or exc}") from None
-    if path.suffix == ".json":
-        try:
-            data = json.loads(text)["config"]
-        except (json.JSONDecodeError, KeyError, TypeError):
-            raise ValueError(f"{path} is not a run.json of 'railfem track' (no 'config' "
-                             "section)") from None
-        return data["spec"], data.get("job", {})
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"config {path}: {exc}") from None
-    job = data.pop("job", {})
-    return data, job
 
 
 def rail_pad_peak(frequency, point_mobility, spec: TrackSpec, rail_mass: float,

@@ -30,14 +30,13 @@ on the nodes (:func:`railfem.rail.waveguide.default_node_sets`), never from file
 from __future__ import annotations
 
 import logging
-import os
 import re
-import tempfile
 from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
+from ..atomic import atomic_path
 from .profiles import (RailProfile, get_profile, half_outline, mirror_deviation,
                        polygon_properties)
 from ..validators import show
@@ -395,21 +394,14 @@ def check_area(mesh: SectionMesh) -> float:
 
 # ------------------------------------------------------------------- .npz files
 def save_mesh(mesh: SectionMesh, path) -> Path:
-    """Write the mesh (with its outline) to .npz atomically."""
+    """Write the mesh (with its outline) to .npz atomically (railfem.atomic)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, suffix=".npz")
-    os.close(fd)
-    os.chmod(tmp, 0o644)  # mkstemp makes 0600 files; shipped meshes must be world-readable
-    try:
-        np.savez_compressed(tmp, format_version=FORMAT_VERSION, nodes=mesh.nodes, elements=mesh.elements,
-                 h=mesh.h, outline=mesh.profile.outline, name=mesh.profile.name,
-                 source=mesh.profile.source, mesh_source=mesh.source,
-                 origin=np.array(mesh.origin))
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    with atomic_path(path, mode=0o644) as tmp:  # shipped meshes must be world-readable
+        with open(tmp, "wb") as fh:
+            np.savez_compressed(fh, format_version=FORMAT_VERSION, nodes=mesh.nodes,
+                                elements=mesh.elements, h=mesh.h, outline=mesh.profile.outline,
+                                name=mesh.profile.name, source=mesh.profile.source,
+                                mesh_source=mesh.source, origin=np.array(mesh.origin))
     return path
 
 

@@ -1,0 +1,91 @@
+"""Fit campaigns: every row of a decay-rate table fitted on a Dask cluster.
+
+Rows on the same bands share one forward model: its kernels (and, for a kernel parameter,
+the profile nodes) are computed once and scattered to the workers, each fitting rows with
+one BLAS thread.
+"""
+from __future__ import annotations
+
+import logging
+import time
+
+import numpy as np
+
+from railfem.identify.data import decay_rate_target
+from railfem.identify.fit import (
+    DEFAULT_PARAMETERS, FIT_BOUNDS, Problem, base_spec, default_workers, fit, prebuild_nodes,
+)
+from railfem.identify.forward import ForwardModel, Geometry
+from railfem.params import ParameterSpace
+
+log = logging.getLogger(__name__)
+
+__all__ = ["fit_campaign"]
+
+
+def _campaign_fit(forward, meas, opts):
+    from threadpoolctl import threadpool_limits
+
+    with threadpool_limits(1):
+        res = fit(meas, forward=forward, workers=1, **opts)
+    return res
+
+
+def fit_campaign(items, *, scheduler=None, base=None, workers=None, model="wfe-discrete",
+                 parameters=DEFAULT_PARAMETERS, slow_nodes=None, slow_refine=None,
+                 cache=None, **opts):
+    """Fit every (index, DecayRateMeasurement) of ``items`` on a Dask cluster (the address
+    ``scheduler`` or a LocalCluster of ``workers`` processes, one thread each). Rows on the
+    same bands share one forward model: its kernels (and, for a kernel parameter, the
+    profile nodes) are computed once here and scattered to the workers. Returns
+    [(index, measurement, FitResult)] in the order given."""
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    first = items[0][1]
+    spec0 = base_spec(first, model, base)
+    b = {n: FIT_BOUNDS[n] for n in parameters if n in FIT_BOUNDS}
+    space = ParameterSpace(spec0, parameters, bounds=b)
+    target = decay_rate_target(first, spec0.spacing)
+    geometry = Geometry(frequency=target.frequency, outputs=target.outputs,
+                        sensor_x=target.sensor_x, force_x=target.force_x)
+    forward = ForwardModel(space, geometry, cache=cache)
+    beam = spec0.is_beam
+    slow_nodes = slow_nodes or (5 if beam else 6)
+    slow_refine = (3 if beam else 0) if slow_refine is None else slow_refine
+    nw = workers or default_workers()
+    slow = [n for n in space.names if n in forward.slow]
+    if slow:  # the profile nodes every row uses, built once (in processes)
+        i = space.names.index(slow[0])
+        nodes = np.linspace(space.lower[i], space.upper[i], slow_nodes + 2)[1:-1]
+        x = np.clip(space.from_spec(space.base), space.lower, space.upper)
+        problem = Problem(target=target, forward=forward)
+        prebuild_nodes(problem, nodes, i, x, nw)
+    opts.update(slow_nodes=slow_nodes, slow_refine=slow_refine)
+    for _, m in items:
+        if not np.array_equal(m.frequency, first.frequency):
+            raise ValueError("campaign rows must share the bands of the first row")
+    if scheduler:
+        client = Client(scheduler)
+        cluster = None
+    else:
+        cluster = LocalCluster(n_workers=nw, threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+        client = Client(cluster)
+    try:
+        fwd = client.scatter(forward, broadcast=True)
+        futs = {client.submit(_campaign_fit, fwd, m, opts, pure=False): k
+                for k, (_, m) in enumerate(items)}
+        results = [None] * len(items)
+        t0 = time.perf_counter()
+        for n, fut in enumerate(as_completed(futs), 1):
+            k = futs[fut]
+            results[k] = fut.result()
+            md = items[k][1].metadata
+            log.info("campaign: row %d (%s %s %s) done, %d/%d, %.0f s", items[k][0],
+                     md.section, md.date, md.rail_side, n, len(items),
+                     time.perf_counter() - t0)
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    return [(i, m, r) for (i, m), r in zip(items, results)]
