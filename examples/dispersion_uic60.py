@@ -18,7 +18,7 @@ from railfem.rail import meshing
 from railfem.rail import waveguide
 from railfem.rail import waves
 from railfem.materials import Material
-from railfem.plotting import propagating_mask
+from railfem.rail.branches import propagating_mask
 
 FREQUENCIES_HZ = (100.0, 500.0, 1000.0, 2000.0)
 
