@@ -134,7 +134,8 @@ class ParameterSpace:
                              f"for {self.names}")
         for p, xi in zip(self.parameters, x):
             value = p.decode(xi) if np.isfinite(xi) else float("nan")
-            if not (np.isfinite(xi) and p.lower <= value <= p.upper):
+            # in vector units, as the box is searched: 10 ** log10(upper) may exceed upper
+            if not (np.isfinite(xi) and p.encode(p.lower) <= xi <= p.encode(p.upper)):
                 raise ValueError(f"parameter {p.name} = {value!r} {p.unit} is outside its "
                                  f"bounds [{p.lower:g}, {p.upper:g}] {p.unit}")
         return x

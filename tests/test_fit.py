@@ -149,6 +149,18 @@ def test_decay_rate_alone_flags_what_it_cannot_determine():
         assert status["eta_b"] != "yes" and status["kb"] != "yes", res.parameters
 
 
+def test_an_estimate_on_the_box_edge_gives_its_spec():
+    """The fit searches the box in vector units (log10): a vector on an edge of the default
+    box is inside it, though 10 ** log10(upper) can exceed upper by a rounding step
+    (kb 2e9, eta_b 5.0), so an estimate on a bound converts to its spec."""
+    space = ParameterSpace(rf.preset("site", model="timoshenko-discrete"), tuple(FIT_BOUNDS),
+                           bounds=FIT_BOUNDS)
+    for edge, x in enumerate((space.lower, space.upper)):
+        assert space.to_spec(x).support.kb == pytest.approx(FIT_BOUNDS["kb"][edge], rel=1e-12)
+    with pytest.raises(ValueError, match="outside its bounds"):
+        space.to_spec(space.upper + 1e-9)
+
+
 def test_bad_input_is_named_before_computing(clean_hammer):
     Y, pos = clean_hammer
     with pytest.raises(ValueError, match="use"):

@@ -19,7 +19,7 @@ from dataclasses import replace
 import numpy as np
 
 from railfem import models
-from railfem.identify.forward import Geometry, SpectralEngine
+from railfem.identify.forward import SPECTRAL_TOLERANCE, Geometry, SpectralEngine
 from railfem.identify.spectral import SpectralCoupling, check, spectral_coupling
 from railfem.track.supports import SupportParameters, dynamic_stiffness
 
@@ -27,7 +27,6 @@ log = logging.getLogger(__name__)
 
 UNIFORM = ("wfe-discrete", "timoshenko-discrete")
 MARGIN = 20.0  # m of supports beyond the outermost position of a track with deviations
-SPECTRAL_TOLERANCE = 1e-8
 
 
 def plain_support(p: SupportParameters) -> SupportParameters:

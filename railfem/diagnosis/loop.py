@@ -311,12 +311,7 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
     if "transfer" in start_target.use:
         start_target = replace(start_target, use=tuple(q for q in start_target.use
                                                        if q != "transfer"))
-    # bounds widened by 1e-9: identify.fit's box check fails on 10 ** log10(upper) > upper
-    from railfem.identify.fit import FIT_BOUNDS
-    wide = {n: (FIT_BOUNDS[n][0] * (1 - 1e-9), FIT_BOUNDS[n][1] * (1 + 1e-9))
-            for n in BASE + ("eta_r",)}
     fr = identify_fit(start_target, model, parameters=BASE + ("eta_r",), base=spec0,
-                      bounds=wide,
                       n_starts=n_starts, workers=workers, cache=cache, profiles=(), seed=seed,
                       slow_nodes=None if model.startswith("wfe") else 3,
                       slow_refine=None if model.startswith("wfe") else 2)  # a start
