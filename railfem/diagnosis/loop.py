@@ -262,27 +262,44 @@ def _kept(row: dict, ref_bic: float) -> bool:
                 and row["bic"] < ref_bic - DELTA_BIC)
 
 
-def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None,
-             effects=None, spacing: float | None = None, pairs: bool = True,
-             n_starts: int = 4, workers: int = 1, cache=False, seed: int = 0,
-             profile_final: bool = True, max_pairs: int = 3,
-             data_options=None) -> Diagnosis:
-    """Diagnose ``data`` (a HammerMeasurement, DecayRateMeasurement/Table, a list of them or
-    DiagnosisData) with track model ``model``; ``effects``: names from the library
-    (default all but those with ``screened=False``, e.g. random_support; "all": every
-    one); ``base``: the spec whose other values are kept (default the site
-    preset with point-like supports, pad_length = 0); ``data_options``: to
-    railfem.diagnosis.data.prepare (e.g. f_range=(50, 2000), sensors=['head']). See the
-    module docstring for the steps."""
-    from railfem.identify import fit as identify_fit
+@dataclass
+class Search:
+    """What the steps of diagnose share: the data, the evaluator, the base spec and its
+    refit, the residual scales and the options that shape every refit."""
 
-    t0 = time.perf_counter()
-    seconds = {}
-    data = prepare(data, spacing=spacing, **(data_options or {}))
-    # the default base has point-like supports (the published configuration): a pad of
-    # finite length is one of the effects the search can find (effects/pad_length.py)
-    spec0 = base if base is not None else preset("site", pad_length=0.0)
-    spec0 = spec0.replace(model=model, spacing=data.spacing)
+    data: DiagnosisData
+    model: str
+    ev: Evaluator
+    spec: TrackSpec  # the base spec (the rail loss factor of the base refit)
+    scale: dict
+    base: Outcome | None = None
+    pred_base: dict | None = None
+    profile_final: bool = True
+
+    @property
+    def wfe(self) -> bool:
+        return self.model.startswith("wfe")
+
+    @property
+    def x_base(self) -> np.ndarray:
+        return self.base.x[:len(BASE)]
+
+    @property
+    def refine_steps(self) -> int:
+        return WFE_REFINE_STEPS if self.wfe else REFINE_STEPS
+
+    @property
+    def eta_r_steps(self) -> int | None:
+        return WFE_ETA_R_STEPS if self.wfe else None  # each a kernel: tens of s for WFE
+
+    @property
+    def profiles(self) -> bool:
+        """Whether the rail loss factor is profiled for the candidates (not for WFE)."""
+        return self.profile_final and not self.wfe
+
+
+def select_effects(data: DiagnosisData, model: str, effects) -> tuple[list, dict]:
+    """(the applicable candidate effects, {name: why skipped})."""
     names = library.names() if effects in (None, "all") else tuple(effects)
     for n in names:
         library.get(n)
@@ -295,6 +312,11 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
     for n in names:
         ok, why = applicable(library.get(n), data, model)
         (cands.append(library.get(n)) if ok else skipped.__setitem__(n, why))
+    return cands, skipped
+
+
+def make_evaluator(cands, data: DiagnosisData, cache) -> Evaluator:
+    """An Evaluator that knows every geometry shift the candidates will ask for."""
     shifts = {}
     for e in cands:
         if e.kind == "geometry":
@@ -302,63 +324,70 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
                 s = e.geometry({e.parameters[0].name: v}, None)
                 for r in data.records:
                     shifts.setdefault(r.name, set()).add((float(s[0]), float(s[1])))
-    ev = Evaluator(cache=cache, shifts=shifts)
+    return Evaluator(cache=cache, shifts=shifts)
 
-    # 1. base
-    t = time.perf_counter()
-    first = data.records[0]
-    start_target = first.fit  # the start: point and decay rate (the fitter takes no NaN)
+
+def fit_base(data: DiagnosisData, model: str, spec0: TrackSpec, ev: Evaluator, *,
+             n_starts, workers, cache, seed, profile_final) -> tuple[Search, object]:
+    """Step 1: railfem.identify.fit on the first record's point mobility and decay rate (a
+    start), then the base refit on all records, its rail loss factor profiled (beam
+    models). Returns the Search and the identify FitResult."""
+    from railfem.identify import fit as identify_fit
+
+    start_target = data.records[0].fit  # point and decay rate (the fitter takes no NaN)
     if "transfer" in start_target.use:
         start_target = replace(start_target, use=tuple(q for q in start_target.use
                                                        if q != "transfer"))
+    beam = not model.startswith("wfe")
     fr = identify_fit(start_target, model, parameters=BASE + ("eta_r",), base=spec0,
                       n_starts=n_starts, workers=workers, cache=cache, profiles=(), seed=seed,
-                      slow_nodes=None if model.startswith("wfe") else 3,
-                      slow_refine=None if model.startswith("wfe") else 2)  # a start
+                      slow_nodes=3 if beam else None, slow_refine=2 if beam else None)
     spec_b = spec0.replace(eta_r=fr.spec.rail.eta)
     x0 = np.array([math.log10(getattr(fr.spec.support, n)) for n in BASE])
     scale = noise_scale(Problem(data=data, evaluator=ev, spec=spec_b, scale={}), x0)
-    wfe = model.startswith("wfe")
-    steps = WFE_ETA_R_STEPS if wfe else None  # every step is a kernel: tens of s for WFE
+    s = Search(data=data, model=model, ev=ev, spec=spec_b, scale=scale,
+               profile_final=profile_final)
     base_o = refit(data, ev, spec_b, (), x0, scale)
-    if profile_final and not wfe:  # WFE: the base fit's own profile (its kernels) stands
-        base_o = profile_eta_r(data, ev, spec_b, (), base_o, scale, max_steps=steps)
-    spec_b = spec_b.replace(eta_r=base_o.eta_r)
-    x_base = base_o.x[:len(BASE)]
-    pred_base = base_o.problem.predict(base_o.x)
-    res_before = resid.make_residual(data, pred_base)
-    repeats = resid.repeat_scatter(data)
-    st_before = resid.structure_test(res_before, n_parameters=base_o.k, repeats=repeats)
-    seconds["base"] = time.perf_counter() - t
-    log.info("diagnosis: base %s, residual %s (p = %.3g, structured %.2f dB)", model,
-             st_before["verdict"], st_before["p"], st_before["structured_rms_db"])
+    if s.profiles:  # WFE: the base fit's own profile (its kernels) stands
+        base_o = profile_eta_r(data, ev, spec_b, (), base_o, scale, max_steps=s.eta_r_steps)
+    s.spec = spec_b.replace(eta_r=base_o.eta_r)
+    s.base = base_o
+    s.pred_base = base_o.problem.predict(base_o.x)
+    return s, fr
 
-    # 2. single candidates (eta_r at the base value)
-    t = time.perf_counter()
+
+def screen_single(s: Search, e) -> Outcome:
+    """Step 3 for one effect: refitted with the base parameters; with a beam model the rail
+    loss factor profiled (not for random effects: only if chosen), and a kernel grid (pad
+    length) profiled jointly with it when the candidate already beats the base."""
+    o = refit(s.data, s.ev, s.spec, (e,), s.x_base, s.scale,
+              grid_values=grid_values(e, s.data, s.model), refine_steps=s.refine_steps)
+    if s.profiles and e.prior is None:
+        o = profile_eta_r(s.data, s.ev, s.spec, (e,), o, s.scale, max_steps=6, refine=False)
+        if e.kind == "spec" and any(n != "index" for n in e.grid) and o.bic < s.base.bic:
+            # a kernel grid (pad length) trades against the rail loss: profile both
+            # (tens of kernels: only for a candidate that already beats the base)
+            o2 = joint_profile(s.data, s.ev, s.spec, e, o, s.scale,
+                               grid_values(e, s.data, s.model))
+            o = o2 if o2.cost < o.cost else o
+    return o
+
+
+def screen_singles(s: Search, cands, skipped: dict) -> tuple[dict, list]:
+    """Step 3: every candidate refitted, gated and scored against the base
+    ({name: Outcome}, rows); a failed refit is recorded in ``skipped``."""
     outcomes, rows = {}, []
     for e in cands:
         te = time.perf_counter()
         try:
-            o = refit(data, ev, spec_b, (e,), x_base, scale,
-                      grid_values=grid_values(e, data, model),
-                      refine_steps=WFE_REFINE_STEPS if wfe else REFINE_STEPS)
+            o = screen_single(s, e)
         except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
             skipped[e.name] = f"refit failed: {exc}"
             log.warning("diagnosis: %s failed: %s", e.name, exc)
             continue
-        # the base's rail loss absorbed part of the effect: profile it (random effects,
-        # with tens of parameters, only if chosen)
-        if profile_final and not wfe and e.prior is None:
-            o = profile_eta_r(data, ev, spec_b, (e,), o, scale, max_steps=6, refine=False)
-            if (e.kind == "spec" and any(n != "index" for n in e.grid)
-                    and o.bic < base_o.bic):
-                # a kernel grid (pad length) trades against the rail loss: profile both
-                # (tens of kernels: only for a candidate that already beats the base)
-                o2 = joint_profile(data, ev, spec_b, e, o, scale, grid_values(e, data, model))
-                o = o2 if o2.cost < o.cost else o
-        gate = held_gate(base_o, o, pred_ref=pred_base)
+        gate = held_gate(s.base, o, pred_ref=s.pred_base)
         ok, why = plausibility(o)
-        row = _row(o, base_o, base_o, gate, ok, why)
+        row = _row(o, s.base, s.base, gate, ok, why)
         row["seconds"] = time.perf_counter() - te
         outcomes[o.name] = o
         rows.append(row)
@@ -366,75 +395,130 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
                  row["delta_bic"], "pass" if gate.get("pass") else "fail",
                  100 * (gate.get("reduction") or 0), "plausible" if ok else why,
                  row["seconds"])
-    seconds["singles"] = time.perf_counter() - t
+    return outcomes, rows
 
-    # 3. pairs of the best kept singles
-    t = time.perf_counter()
-    kept = sorted([r for r in rows if _kept(r, base_o.bic)], key=lambda r: r["bic"])
-    if pairs and len(kept) >= 2:
-        top = kept[:max_pairs]
-        for i in range(len(top)):
-            for j in range(i + 1, len(top)):
-                ea, eb = (library.get(top[i]["name"]), library.get(top[j]["name"]))
-                if ea.kind == eb.kind == "geometry":
-                    continue
-                if "deviations" in ea.needs and "deviations" in eb.needs:
-                    # both set factors on single supports' stiffness (a voided sleeper is
-                    # one realisation of random supports): nested, not two mechanisms
-                    continue
-                ref = outcomes[top[i]["name"]]
-                try:
-                    gv = dict(grid_values(ea, data, model), **grid_values(eb, data, model))
-                    o = refit(data, ev, spec_b, (ea, eb), x_base, scale, grid_values=gv,
-                              refine_steps=WFE_REFINE_STEPS if wfe else REFINE_STEPS)
-                    if profile_final and not wfe:
-                        o = profile_eta_r(data, ev, spec_b, (ea, eb), o, scale, max_steps=6,
-                                          refine=False)
-                except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
-                    log.warning("diagnosis: pair %s+%s failed: %s", ea.name, eb.name, exc)
-                    continue
-                gate = held_gate(ref, o)
-                ok, why = plausibility(o)
-                row = _row(o, ref, base_o, gate, ok, why)
-                outcomes[o.name] = o
-                rows.append(row)
-    seconds["pairs"] = time.perf_counter() - t
 
-    # 4. ranking and decision
+def _pairable(ea, eb) -> bool:
+    if ea.kind == eb.kind == "geometry":
+        return False
+    # both set factors on single supports' stiffness (a voided sleeper is one realisation
+    # of random supports): nested, not two mechanisms
+    return not ("deviations" in ea.needs and "deviations" in eb.needs)
+
+
+def screen_pairs(s: Search, outcomes: dict, rows: list, max_pairs: int) -> None:
+    """Step 5: pairs of the (up to max_pairs) best kept singles, each gated against the
+    better single of the two; outcomes and rows are extended in place."""
+    kept = sorted([r for r in rows if _kept(r, s.base.bic)], key=lambda r: r["bic"])
+    if len(kept) < 2:
+        return
+    top = kept[:max_pairs]
+    for i in range(len(top)):
+        for j in range(i + 1, len(top)):
+            ea, eb = (library.get(top[i]["name"]), library.get(top[j]["name"]))
+            if not _pairable(ea, eb):
+                continue
+            ref = outcomes[top[i]["name"]]
+            try:
+                gv = dict(grid_values(ea, s.data, s.model), **grid_values(eb, s.data, s.model))
+                o = refit(s.data, s.ev, s.spec, (ea, eb), s.x_base, s.scale, grid_values=gv,
+                          refine_steps=s.refine_steps)
+                if s.profiles:
+                    o = profile_eta_r(s.data, s.ev, s.spec, (ea, eb), o, s.scale,
+                                      max_steps=6, refine=False)
+            except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
+                log.warning("diagnosis: pair %s+%s failed: %s", ea.name, eb.name, exc)
+                continue
+            gate = held_gate(ref, o)
+            ok, why = plausibility(o)
+            outcomes[o.name] = o
+            rows.append(_row(o, ref, s.base, gate, ok, why))
+
+
+def rank(s: Search, outcomes: dict, rows: list) -> tuple[Outcome | None, dict | None]:
+    """Step 6 (first half): every row's gates against its reference, the rows ranked (kept
+    first, then by BIC); the best kept model and its row, or (None, None)."""
     for r in rows:
-        ref_bic = outcomes[r["reference"]].bic if r["reference"] != "base" else base_o.bic
+        ref_bic = outcomes[r["reference"]].bic if r["reference"] != "base" else s.base.bic
         r["kept"] = _kept(r, ref_bic)
     rows.sort(key=lambda r: (not r["kept"], r["bic"]))
     for i, r in enumerate(rows, 1):
         r["rank"] = i
-    chosen = chosen_row = None
     kept = [r for r in rows if r["kept"]]
-    if kept:
-        chosen_row = kept[0]
-        chosen = outcomes[chosen_row["name"]]
+    if not kept:
+        return None, None
+    return outcomes[kept[0]["name"]], kept[0]
+
+
+def final_refit(s: Search, chosen: Outcome) -> Outcome:
+    """Step 6 (second half): the chosen model refitted with the rail loss factor profiled
+    from its own estimate (the profile, at least 3 kernels, redoes the best point's
+    analysis with the unfitted scatter: the start's is not kept)."""
+    if not s.profile_final:
+        return chosen
+    grid_fix = {k: (v,) for k, v in chosen.grid.items()}
+    spec_c = s.spec.replace(eta_r=chosen.eta_r)
+    start = refit(s.data, s.ev, spec_c, chosen.effects, s.x_base, s.scale,
+                  grid_values=grid_fix, refine=False, x_start=chosen.x, unfitted=False)
+    start.grid_profiles = chosen.grid_profiles
+    return profile_eta_r(s.data, s.ev, s.spec, chosen.effects, start, s.scale,
+                         max_steps=s.eta_r_steps)
+
+
+def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None,
+             effects=None, spacing: float | None = None, pairs: bool = True,
+             n_starts: int = 4, workers: int = 1, cache=False, seed: int = 0,
+             profile_final: bool = True, max_pairs: int = 3,
+             data_options=None) -> Diagnosis:
+    """Diagnose ``data`` (a HammerMeasurement, DecayRateMeasurement/Table, a list of them or
+    DiagnosisData) with track model ``model``; ``effects``: names from the library
+    (default all but those with ``screened=False``, e.g. random_support; "all": every
+    one); ``base``: the spec whose other values are kept (default the site
+    preset with point-like supports, pad_length = 0); ``data_options``: to
+    railfem.diagnosis.data.prepare (e.g. f_range=(50, 2000), sensors=['head']). See the
+    module docstring for the steps."""
+    t0 = time.perf_counter()
+    seconds = {}
+    data = prepare(data, spacing=spacing, **(data_options or {}))
+    # the default base has point-like supports (the published configuration): a pad of
+    # finite length is one of the effects the search can find (effects/pad_length.py)
+    spec0 = base if base is not None else preset("site", pad_length=0.0)
+    spec0 = spec0.replace(model=model, spacing=data.spacing)
+    cands, skipped = select_effects(data, model, effects)
+    ev = make_evaluator(cands, data, cache)
+
+    t = time.perf_counter()  # 1. base and 2. its residual
+    s, fr = fit_base(data, model, spec0, ev, n_starts=n_starts, workers=workers, cache=cache,
+                     seed=seed, profile_final=profile_final)
+    res_before = resid.make_residual(data, s.pred_base)
+    repeats = resid.repeat_scatter(data)
+    st_before = resid.structure_test(res_before, n_parameters=s.base.k, repeats=repeats)
+    seconds["base"] = time.perf_counter() - t
+    log.info("diagnosis: base %s, residual %s (p = %.3g, structured %.2f dB)", model,
+             st_before["verdict"], st_before["p"], st_before["structured_rms_db"])
+
+    t = time.perf_counter()  # 3. single candidates (eta_r at the base value), 4. gates
+    outcomes, rows = screen_singles(s, cands, skipped)
+    seconds["singles"] = time.perf_counter() - t
+    t = time.perf_counter()  # 5. pairs of the best kept singles
+    if pairs:
+        screen_pairs(s, outcomes, rows, max_pairs)
+    seconds["pairs"] = time.perf_counter() - t
+
+    chosen, chosen_row = rank(s, outcomes, rows)  # 6. ranking, final refit, decision
     t = time.perf_counter()
     st_after = res_after = None
     if chosen is not None:
-        if profile_final:
-            grid_fix = {k: (v,) for k, v in chosen.grid.items()}
-            spec_c = spec_b.replace(eta_r=chosen.eta_r)
-            # the profile below (at least 3 kernels) redoes the best point's analysis
-            # with the unfitted scatter (_joint_uncertainty): the start's is not kept
-            start = refit(data, ev, spec_c, chosen.effects, x_base, scale,
-                          grid_values=grid_fix, refine=False, x_start=chosen.x,
-                          unfitted=False)
-            start.grid_profiles = chosen.grid_profiles
-            chosen = profile_eta_r(data, ev, spec_b, chosen.effects, start, scale,
-                                   max_steps=steps)
+        chosen = final_refit(s, chosen)
         res_after = resid.make_residual(data, chosen.problem.predict(chosen.x))
         st_after = resid.structure_test(res_after, n_parameters=chosen.k, repeats=repeats)
         chosen_row = dict(chosen_row, final_parameters=chosen.parameters(),
-                          final_held_out=held_gate(base_o, chosen, pred_ref=pred_base))
+                          final_held_out=held_gate(s.base, chosen, pred_ref=s.pred_base))
     seconds["final"] = time.perf_counter() - t
     verdict, statement = decide(st_before, st_after, chosen, chosen_row, rows)
     seconds["total"] = time.perf_counter() - t0
     log.info("diagnosis: %s (%.1f s)", statement, seconds["total"])
-    return Diagnosis(data=data, model=model, base=base_o, base_fit=fr,
+    return Diagnosis(data=data, model=model, base=s.base, base_fit=fr,
                      structure_before=st_before, residual_before=res_before,
                      candidates=rows, chosen=chosen, chosen_row=chosen_row, verdict=verdict,
                      statement=statement, structure_after=st_after, residual_after=res_after,
