@@ -129,3 +129,42 @@ def test_json_safe_gives_strict_json():
     out = json_safe(data)
     assert out == {"1": [1.0, None, None], "n": 3, "b": True, "t": [0.5, None, "x"]}
     json.dumps(out, allow_nan=False)
+
+
+def test_mesh_and_frf_files_go_through_the_one_writer(tmp_path, monkeypatch):
+    """save_mesh and write_frf_csv write through railfem.atomic: a failed write leaves the
+    old file and no temporary; a mesh is world-readable (shipped meshes)."""
+    import numpy as np
+
+    from railfem.frf import FRF
+    from railfem.io.frf_csv import write_frf_csv
+    from railfem.rail import meshing
+
+    mesh = meshing.load_mesh(meshing.MESH_DIR / "60E1_h20mm.npz")
+    target = meshing.save_mesh(mesh, tmp_path / "m.npz")
+    assert target.stat().st_mode & 0o777 == 0o644
+    frf = FRF(frequency=[10.0, 20.0], values=np.ones((2, 1, 1), dtype=complex),
+              quantity="mobility", response=("a",), force=("b",))
+    write_frf_csv(tmp_path / "f.csv", frf)
+    old = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    calls = []
+
+    def through(path, **kw):
+        calls.append(path)
+        return real(path, **kw)
+
+    real = atomic.atomic_path
+    monkeypatch.setattr("railfem.rail.meshing.atomic_path", through)
+    monkeypatch.setattr("railfem.io.frf_csv.atomic_path", through)
+
+    def boom(*a, **k):
+        raise RuntimeError("disk full")
+
+    monkeypatch.setattr(np, "savez_compressed", boom)
+    monkeypatch.setattr(np, "savetxt", boom)
+    with pytest.raises(RuntimeError):
+        meshing.save_mesh(mesh, tmp_path / "m.npz")
+    with pytest.raises(RuntimeError):
+        write_frf_csv(tmp_path / "f.csv", frf)
+    assert calls == [tmp_path / "m.npz", tmp_path / "f.csv"]
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == old
