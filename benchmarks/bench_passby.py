@@ -33,12 +33,12 @@ def main(argv=None):
     from railfem.simulate import passby as P, signals
     from railfem.simulate.train import default_train
     from railfem.standards import iec61260
-    from railfem.track.supports import preset
+    from railfem.spec import preset
 
     f = iec61260.ninth_octave_grid(100, 5000)
     train = default_train()
     t0 = time.perf_counter()
-    tables = P.rail_tables("site", f, model="wfe-discrete", max_distance=args.max_distance)
+    tables = P.rail_tables(preset("site", model="wfe-discrete"), f, max_distance=args.max_distance)
     t_tab = time.perf_counter() - t0
     V = 216 / 3.6
     hz = contact.hertz()

@@ -20,8 +20,8 @@ from dataclasses import asdict, dataclass, field, fields, replace
 from . import validators as v
 from .materials import Material
 from .track.supports import HORIZONTAL_FIELDS, PRESETS, SupportLayout, SupportParameters
-from .track.supports import DIRECTIONS as SUPPORT_DIRECTIONS, preset as table1_preset
-from .track.supports import uniform_layout
+from .track.supports import DIRECTIONS as SUPPORT_DIRECTIONS, RAIL_LOSS_FACTORS, preset_key
+from .track.supports import DEFAULT_SPACING, uniform_layout
 
 MODELS = ("wfe-discrete", "wfe-periodic", "wfe-continuous", "timoshenko-discrete",
           "timoshenko-continuous")
@@ -271,14 +271,14 @@ def preset(name: str, **changes) -> TrackSpec:
     point-like support does not converge with the section mesh (a line load on a solid), a
     pad of real length does (docs/model.md, railfem support-convergence). pad_length=0
     gives the published point supports."""
-    tp = table1_preset(name)
+    key = preset_key(name)
     model = changes.get("model", "wfe-discrete")
     pad = {} if model.endswith("continuous") else {"pad_length": DEFAULT_PAD_LENGTH,
                                                     "n_rows": DEFAULT_PAD_ROWS}
     if "pad_length" in changes:
         pad = {}
-    spec = TrackSpec(name=tp.name, support=tp.support, spacing=tp.spacing,
-                     rail=RailSpec(eta=tp.eta_r), **pad)
+    spec = TrackSpec(name=key, support=PRESETS[key], spacing=DEFAULT_SPACING,
+                     rail=RailSpec(eta=RAIL_LOSS_FACTORS[key]), **pad)
     return spec.replace(**changes) if changes else spec
 
 

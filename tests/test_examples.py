@@ -15,6 +15,8 @@ import numpy as np
 
 import pytest
 
+from railfem.spec import preset as spec_preset
+
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
 SCRIPTS = sorted(EXAMPLES.glob("*.py"))
 
@@ -56,9 +58,9 @@ def _site_timoshenko_point_100hz():
     from railfem.track import beams
     from railfem.track import supports
 
-    tp = supports.preset("site")
+    tp = spec_preset("site")
     section = beams.BeamSection(E=E, G=G, area=A_60E1,
-                                I=IY_60E1, kappa=KAPPA_60E1, rho=RHO, eta=tp.eta_r)
+                                I=IY_60E1, kappa=KAPPA_60E1, rho=RHO, eta=tp.rail.eta)
     lay = supports.uniform_layout(tp.support, tp.spacing, 131)
     f = 1000 * 10 ** (-30 / 30)  # the 1/9-octave point nearest to 100 Hz
     a = beams.discrete_track_receptance(section, lay, 2 * np.pi * np.array([f]), [0.32], [0.3])
@@ -91,12 +93,11 @@ def check_passby_simplified_1khz(level_db):
     re 1 um at 60 m/s, no contact filter, rigid 600 kg wheel."""
     from railfem.track import beams
     from railfem.wheelrail import contact
-    from railfem.track import supports
     from railfem.standards import en15461, iec61260
 
-    tp = supports.preset("site")
+    tp = spec_preset("site")
     sec = beams.BeamSection(E=E, G=G, area=A_60E1, I=IY_60E1, kappa=KAPPA_60E1, rho=RHO,
-                            eta=tp.eta_r)
+                            eta=tp.rail.eta)
     f = iec61260.ninth_octave_grid(1000, 1000)
     w = 2 * np.pi * f
     pos = en15461.hammer_positions(tp.spacing)

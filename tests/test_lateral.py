@@ -37,7 +37,7 @@ def rail():
     return g, vert_off, lat
 
 
-SITE = supports.preset("site").support
+SITE = supports.PRESETS["site"]
 
 
 def test_horizontal_fields_are_additive():

@@ -16,7 +16,7 @@ from railfem.wheelrail import wheels
 from railfem.simulate import passby as P
 from railfem.simulate.train import TrainLayout, default_train, from_cars, read_train_layout
 from railfem.standards import en15461, iec61260
-from railfem.track.supports import preset, uniform_layout
+from railfem.track.supports import uniform_layout
 from railfem.models import beam_section
 from railfem.spec import preset as rf_preset
 from railfem.spec import RailSpec
@@ -46,8 +46,8 @@ def test_one_wheel_equals_closed_form(discrete_tables):
     X = np.round(np.arange(-2.0, 2.05, 0.1), 10)
     res = P.simulate_passby(discrete_tables, train, aw, ac, r, sensor_x=xs, positions=X,
                             output="head")
-    tp = preset("site")
-    bs = beam_section(RailSpec(eta=tp.eta_r))
+    tp = rf_preset("site")
+    bs = beam_section(RailSpec(eta=tp.rail.eta))
     w = 2 * np.pi * F
     for k in (0, 7, 20, 33):  # wheel at 4 positions in different spans
         xw = X[k]
@@ -108,7 +108,7 @@ def test_simplified_formula_recovered_under_its_assumptions():
     the wheel; the EN 15461 sum and the 1/9-octave band averages are the rest)."""
     f = iec61260.ninth_octave_grid(100, 2000)
     # step 0.05 m: the EN 15461 hammer positions lie on quarter spans of 0.6 m
-    tab = P.rail_tables("site", f, model="timoshenko-discrete", continuous=True,
+    tab = P.rail_tables(rf_preset("site", model="timoshenko-discrete"), f, continuous=True,
                         max_distance=45.0, step=0.05)
     aw, ac, r = _inputs(f)
     train = default_train()

@@ -6,7 +6,6 @@ import pytest
 
 from railfem.wheelrail import contact
 from railfem.wheelrail import roughness as R
-from railfem.track import supports
 from railfem.wheelrail import wheels
 from railfem.cli import main
 from railfem.io.recording import write_recording
@@ -33,7 +32,7 @@ def recordings(tmp_path_factory):
         res = P.simulate_passby(tables, train, wheels.RigidWheel(mass=600.0).receptance(f),
                                 contact.contact_receptance(hz, f), r, before=20.0, after=20.0)
         sig, truth = signals.synthesise(res, train, v, sample_rate=12800.0, seed=k,
-                                        quasi=signals.quasi_static(supports.preset("site"),
+                                        quasi=signals.quasi_static(preset("site"),
                                                                    hz.load))
         rec = signals.passby_recording(sig, truth, spacing=0.6, location="foot")
         paths.append(str(write_recording(folder / f"pb{k}", rec, truth=truth)["data"]))

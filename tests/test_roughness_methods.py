@@ -14,7 +14,6 @@ import pytest
 
 from railfem.wheelrail import contact
 from railfem.wheelrail import roughness as R
-from railfem.track import supports
 from railfem.wheelrail import wheels
 from railfem.estimators.passby import PassbyOptions, passby_decay_rate
 from railfem.estimators.passby_level import passby_level
@@ -64,7 +63,7 @@ def _recordings(tmp_path, tables, track, speeds, *, train=TRAIN, interaction=Tru
                                 contact.contact_receptance(HZ, f), r, interaction=interaction,
                                 before=20.0, after=20.0)
         sig, truth = signals.synthesise(res, train, v, sample_rate=fs,
-                                        quasi=signals.quasi_static(supports.preset(track),
+                                        quasi=signals.quasi_static(preset(track),
                                                                    HZ.load),
                                         noise_fraction=noise, position_error=position_error,
                                         seed=seed + k)

@@ -23,8 +23,9 @@ from railfem.rail import section
 from railfem.track import supports
 from railfem.studies import support_convergence as sc
 from railfem.materials import Material
+from railfem.spec import preset
 
-SITE = supports.preset("site")
+SITE = preset("site")
 _RAILS = {}
 
 
@@ -61,7 +62,7 @@ def test_supports_beyond_a_few_metres_do_not_move_the_peak():
 def timoshenko_peak(tp, guide, pad_length, n_rows):
     """Rail-on-pad peak of the Timoshenko beam (section constants of the same mesh) on
     131 discrete supports with the same rows, on a 0.25 Hz grid over the search band."""
-    m = Material.steel(tp.eta_r)
+    m = Material.steel(tp.rail.eta)
     s = section.section_constants(guide.mesh)
     bs = beams.BeamSection(E=m.E, G=m.G, area=s.area, I=s.I_y, kappa=s.kappa_z, rho=m.rho,
                            eta=m.loss_factor)
@@ -74,7 +75,7 @@ def timoshenko_peak(tp, guide, pad_length, n_rows):
 
 
 def wfe_and_beam(name, pad_length, n_rows):
-    tp = supports.preset(name)
+    tp = preset(name)
     r = sc.Rails(tp)
     case = sc.SupportCase(h=0.02, n_width=16, pad_length=pad_length, n_rows=n_rows)
     p = sc.rail_pad_peak(case, tp, n_supports=21, rails=r)

@@ -72,10 +72,10 @@ def test_missing_pad_and_undamped_resonances():
 
 def test_support_is_passive_for_all_presets():
     w = 2 * np.pi * np.geomspace(1, 1e4, 200)
-    for pr in sp.PRESETS.values():
-        k = sp.dynamic_stiffness(pr.support, w)
+    for name, support in sp.PRESETS.items():
+        k = sp.dynamic_stiffness(support, w)
         # with exp(+i w t) the power taken by the spring is w Im(K) |u|^2 / 2 >= 0
-        assert np.all(k.imag > 0), pr.name
+        assert np.all(k.imag > 0), name
 
 
 def test_support_receptance_is_inverse(medium):
@@ -132,16 +132,20 @@ TABLE1 = {  # METHOD.md Table 1: kp (MN/m), eta_p, kb (MN/m), eta_b, eta_r
 
 
 def test_presets_reproduce_table1():
+    """The Table 1 tracks as specs (railfem.spec.preset): supports, spacing, rail loss."""
+    from railfem.spec import preset
+
     assert set(sp.PRESETS) == set(TABLE1)
     for name, (kp, eta_p, kb, eta_b, eta_r) in TABLE1.items():
-        pr = sp.preset(name)
-        assert pr.name == name
-        s = pr.support
+        spec = preset(name)
+        assert spec.name == name
+        s = spec.support
         assert (s.kp, s.eta_p, s.kb, s.eta_b) == (kp * 1e6, eta_p, kb * 1e6, eta_b)
-        assert s.ms == 120.0 and pr.spacing == 0.6 and pr.eta_r == eta_r
-    assert sp.preset("very soft") is sp.PRESETS["very_soft"]
+        assert s.ms == 120.0 and spec.spacing == 0.6 and spec.rail.eta == eta_r
+        assert s == sp.PRESETS[name]
+    assert sp.preset_key("very soft") == "very_soft" == preset("very-soft").name
     with pytest.raises(KeyError) as err:
-        sp.preset("concrete")
+        preset("concrete")
     assert "concrete" in str(err.value) and "very_soft" in str(err.value)
 
 

@@ -47,7 +47,7 @@ def test_wfe_discrete_matches_timoshenko_discrete_below_500hz(mesh):
     at every 1/9-octave point 50-500 Hz, over a support and at mid-span. (On stiff pads
     they do not near the rail-on-pad resonance: the WFE foot flexes; see the closing note
     of issue 4.)"""
-    tp = supports.preset("very_soft")
+    tp = preset("very_soft")
     f = 1000 * 10 ** (np.arange(-40, -9) / 30)
     fx, rx = np.array([0.0, 0.3]), np.array([0.0, 0.3])
     wfe = track_receptance("wfe-discrete", tp, mesh, f, fx, rx)[:, 0]
@@ -56,7 +56,7 @@ def test_wfe_discrete_matches_timoshenko_discrete_below_500hz(mesh):
 
 
 def test_discrete_tends_to_continuous_at_low_frequency(mesh):
-    tp = supports.preset("site")
+    tp = preset("site")
     f = np.array([50.0, 63.0, 80.0])
     rx = np.array([0.3])
     disc = track_receptance("wfe-discrete", tp, mesh, f, [0.3], rx)[:, 0, 0, 0]
@@ -67,7 +67,7 @@ def test_discrete_tends_to_continuous_at_low_frequency(mesh):
 def test_truncation_and_periodic_solution_agree(mesh):
     """131 supports against 261 and against infinitely many (Floquet): < 0.1 dB on the
     transfers within 30 dB of the point, < 1 % on the decay-rate sum of EN 15461 eq. (1)."""
-    tp = supports.preset("medium")
+    tp = preset("medium")
     f = np.array([100.0, 400.0, 1000.0, 2500.0])
     pos = en15461.hammer_positions(tp.spacing)
     fx, rx = 0.3 + np.where(pos == 0, 0.02, pos), np.array([0.3])
@@ -87,7 +87,7 @@ def test_truncation_and_periodic_solution_agree(mesh):
 
 def test_periodic_converges_in_floquet_angles(rail):
     g, load, outs = rail
-    p = supports.preset("soft").support
+    p = preset("soft").support
     f = np.array([300.0, 1500.0])
     kw = dict(load=load, outputs=outs, force_x=[0.0, 0.3], response_x=[0.0, 3.0])
     coarse = track.periodic_receptance(g, p, 0.6, f, n_theta=128, **kw).receptance
@@ -102,7 +102,7 @@ def test_far_field_decay_equals_least_attenuated_wave(rail):
     by 20 log10(e) |Im k| = 8.686 |Im k| dB/m, with k from the supported section's own
     eigenproblem (not from the response)."""
     g, load, outs = rail
-    p = supports.preset("soft").support
+    p = preset("soft").support
     f = 800.0
     x = np.linspace(4.0, 8.0, 9)
     r = track.continuous_receptance(g, p, 0.6, [f], load=load, outputs=outs[:1], x=x)
@@ -116,7 +116,7 @@ def test_far_field_decay_equals_least_attenuated_wave(rail):
 
 
 def test_head_and_foot_sensors_differ_only_at_high_frequency(mesh):
-    tp = supports.preset("site")
+    tp = preset("site")
     f = np.array([100.0, 250.0, 500.0, 2000.0, 3150.0, 5000.0])
     a = track_receptance("wfe-discrete", tp, mesh, f, [0.32, 1.2], [0.3])[:, :, 0]
     diff = np.abs(db(a[:, 0] / a[:, 1]))
@@ -128,7 +128,7 @@ def test_inhomogeneous_track_void_support(rail):
     """One support with almost no ballast (a hanging sleeper) needs no new code and makes
     the track softer over it at low frequency, not far away."""
     g, load, outs = rail
-    p = supports.preset("medium").support
+    p = preset("medium").support
     lay = supports.uniform_layout(p, 0.6, 41)
     void = supports.with_support(lay, 20, replace(p, kb=1e3))
     f = np.array([60.0])
@@ -140,7 +140,7 @@ def test_inhomogeneous_track_void_support(rail):
 
 def test_reciprocity_of_the_supported_track(rail):
     g, load, outs = rail
-    lay = supports.uniform_layout(supports.preset("site").support, 0.6, 41)
+    lay = supports.uniform_layout(preset("site").support, 0.6, 41)
     f = np.array([400.0, 1200.0])
     r = track.discrete_receptance(g, lay, f, load=load, outputs=[load], force_x=[0.1, 0.9],
                                   response_x=[0.1, 0.9], response_length=0.02).receptance[:, 0]
@@ -148,7 +148,7 @@ def test_reciprocity_of_the_supported_track(rail):
 
 
 def test_point_mobility_is_passive(mesh):
-    tp = supports.preset("stiff")
+    tp = preset("stiff")
     f = np.geomspace(50, 5000, 12)
     a = track_receptance("wfe-discrete", tp, mesh, f, [0.3], [0.3])[:, 0, 0, 0]
     assert np.all((1j * 2 * np.pi * f * a).real > 0)
@@ -162,7 +162,7 @@ def test_beam_section_uses_mesh_constants(mesh):
 
 def test_bad_inputs(rail):
     g, load, outs = rail
-    p = supports.preset("site").support
+    p = preset("site").support
     lay = supports.uniform_layout(p, 0.6, 5)
     no_foot = replace(g, node_sets={**g.node_sets, "foot_underside": np.array([], int)})
     with pytest.raises(ValueError, match="rail-foot"):
@@ -191,7 +191,7 @@ def test_track_command_writes_readable_outputs(tmp_path):
                      "--f-low", "100", "--f-high", "200", "--no-cache", "--out", str(out)]) == 0
     frf = read_frf_csv(out / "transfer_mobility.csv")
     assert frf.quantity == "mobility" and frf.values.shape[1:] == (2, 29)
-    tp = supports.preset("site")
+    tp = preset("site")
     a = track_receptance("timoshenko-discrete", tp, meshing.get_mesh("60E1", 0.01),
                          frf.frequency, [0.32], [0.3])[:, 0, 0, 0]
     assert np.allclose(frf.values[:, 0, 0], 2j * np.pi * frf.frequency * a, rtol=1e-6)

@@ -15,6 +15,7 @@ from railfem.wheelrail import wheelfe
 from railfem.wheelrail import wheels
 from railfem.frf import FRF
 from railfem.io.frf_csv import write_frf_csv
+from railfem.io.wheel_frf import read_wheel_frf, write_wheel_frf
 
 E, NU, RHO = 2.1e11, 0.3, 7850.0
 G = E / (2 * (1 + NU))
@@ -127,12 +128,16 @@ def test_tabulated_wheel_round_trip(tmp_path):
     frf = FRF(frequency=f, values=1j * 2 * np.pi * f * rec, quantity="mobility",
               response=("wheel",), force=("contact",))
     path = write_frf_csv(tmp_path / "wheel.csv", frf)
-    tab = wheels.read_wheel_mobility(path)
+    tab = read_wheel_frf(path)
     fi = np.array([63.0, 1000.0, 4000.0])
     assert np.allclose(tab.receptance(fi), wheels.RigidWheel(mass=700.0).receptance(fi),
                        rtol=1e-9)
     with pytest.raises(ValueError, match="covers"):
         tab.receptance([20.0])
+    # write -> read gives the same table
+    back = read_wheel_frf(write_wheel_frf(tmp_path / "again.csv", tab))
+    assert np.array_equal(back.frequency, tab.frequency)
+    assert np.array_equal(back.values, tab.values)
 
 
 def test_harmonic_without_modes_below_the_cut_off():

@@ -5,14 +5,15 @@ import argparse
 import sys
 from pathlib import Path
 
-from .common import count, non_negative, positive, report_written
+from .common import (add_track_options, apply_track_options, count, non_negative, positive,
+                     report_written)
 
 
 # ------------------------------------------------------------------------ pass-by
 def passby_args(p: argparse.ArgumentParser) -> None:
-    from ..jobs.passby import CONTACT_FILTERS
+    from ..simulate.chain import CONTACT_FILTERS
     from ..simulate.passby import CONTINUOUS_OF, FORMS, OUTPUTS
-    from ..track.supports import PRESETS
+    from ..spec import PRESETS
 
     p.add_argument("--config", type=Path, metavar="TOML",
                    help="options from a TOML file (keys = option names with underscores); "
@@ -20,6 +21,7 @@ def passby_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--preset", choices=sorted(PRESETS), help="track (default site)")
     p.add_argument("--model", choices=sorted(CONTINUOUS_OF), help="track model "
                    "(default wfe-discrete)")
+    add_track_options(p)
     p.add_argument("--train", type=Path, metavar="FILE", help="train layout (TOML/JSON); "
                    "default 6 cars, 24 wheels over 120 m")
     p.add_argument("--speed-kmh", type=positive, help="train speed (km/h, default 216)")
@@ -54,9 +56,15 @@ def passby_args(p: argparse.ArgumentParser) -> None:
 
 def passby_run(args) -> int:
     from ..jobs.passby import read_config, run_passby
+    from ..spec import preset
 
     opts = read_config(args.config) if args.config else {}
-    given = {"preset": args.preset, "model": args.model, "train": args.train,
+    # the track: the preset (option < config < site) with the config's model, then the
+    # track options as in 'railfem track'
+    name = opts.pop("preset", "site")
+    base = preset(args.preset or name, model=opts.pop("model", "wfe-discrete"))
+    track = apply_track_options(base, args)
+    given = {"train": args.train,
              "speed_kmh": args.speed_kmh, "roughness": args.roughness, "wheel": args.wheel,
              "f_low": args.f_low, "f_high": args.f_high, "form": args.form,
              "output": args.output, "contact_filter": args.contact_filter,
@@ -71,7 +79,7 @@ def passby_run(args) -> int:
                              (args.no_speed, "speed_known", False)):
         if flag:
             opts[key] = value
-    s = run_passby(args.out, **opts)
+    s = run_passby(args.out, track=track, **opts)
     sys.stdout.write(f"{s['preset']} track ({s['model']}), {s['train']['n_wheels']} wheels, "
                      f"{s['speed_m_per_s'] * 3.6:.0f} km/h: {s['runtime_s']['total']:.1f} s\n")
     report_written(s["files"])

@@ -177,12 +177,13 @@ def support_args(p: argparse.ArgumentParser) -> None:
 
 def support_run(args) -> int:
     from ..jobs.support_convergence import run_support_convergence
-    from ..studies.support_convergence import sweeps
 
-    cases = sweeps(np.array(args.sizes) * 1e-3, args.width, args.rows, args.pad_lengths,
-                   rule=args.rule, rows_ref=args.rows_ref)
-    res = run_support_convergence(args.out, cases, preset=args.preset, decay=args.decay,
-                                  n_supports=args.n_supports, profile=args.profile)
-    sys.stdout.write(res["paths"]["txt"].read_text())
+    res = run_support_convergence(args.out, sizes=np.array(args.sizes) * 1e-3,
+                                  widths=args.width, rows=args.rows,
+                                  pad_lengths=args.pad_lengths, rule=args.rule,
+                                  rows_ref=args.rows_ref, preset=args.preset,
+                                  decay=args.decay, n_supports=args.n_supports,
+                                  profile=args.profile)
+    sys.stdout.write(res["text"])
     report_written(res["paths"])
     return 0

@@ -31,6 +31,8 @@ from railfem.io.hammer import hammer_measurement
 from railfem.io.tdr_table import (SBB_NIEDERWANGEN_COLUMNS, read_decay_rate_table,
                                   write_decay_rate_table)
 from railfem.io.uff58 import read_uff58
+from railfem.io.roughness_table import read_roughness, read_spectrum_csv, write_spectrum_csv
+from railfem.io.wheel_frf import read_wheel_frf, write_wheel_frf
 
 __all__ = [
     "read_measurement", "read_descriptor", "read_toml", "read_track_config", "data_kind",
@@ -39,4 +41,5 @@ __all__ = [
     "write_decay_rate_table", "SBB_NIEDERWANGEN_COLUMNS", "read_frf_csv", "write_frf_csv",
     "FRFFileError", "MeasurementFileError", "MalformedFileError", "NonFiniteValueError",
     "FrequencyAxisError", "MissingPositionError", "UnknownQuantityError", "UnknownUnitError",
+    "read_roughness", "read_spectrum_csv", "write_spectrum_csv", "read_wheel_frf", "write_wheel_frf",
 ]

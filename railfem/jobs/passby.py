@@ -9,7 +9,8 @@ are the keyword names). Outputs (all atomic):
     passby_spectrum.csv   pass-by average per band: exact form, paper's form, difference
     contact_force.csv     band contact-force level per wheel, averaged over the pass-by
     *.png                 level vs position, pass-by spectrum, contact forces, wheel FRF
-    run.json              settings, runtime, files, exact-vs-paper difference
+    run.json              settings, the track (railfem.spec dict form), runtime, files,
+                          exact-vs-paper difference
     passby.wav/.json      (signal=True) the recording; passby.truth.json the truth
 """
 from __future__ import annotations
@@ -22,23 +23,21 @@ from pathlib import Path
 
 import numpy as np
 
-from ..wheelrail import contact
-from ..wheelrail import roughness as rough
-from ..wheelrail import wheels
 from ..atomic import prepare_output_dir, write_text_atomic
-from .common import progress_logger
+from ..simulate import chain
 from ..simulate import passby as P
 from ..simulate.train import TrainLayout, default_train, read_train_layout
+from ..spec import spec_to_dict
 from ..standards import iec61260
-from ..track.supports import TrackPreset, preset as get_preset
+from .common import progress_logger
 
 log = logging.getLogger(__name__)
 
-__all__ = ["run_passby", "read_config", "make_wheel", "roughness_spectrum", "WHEEL_MODELS",
-           "CONTACT_FILTERS", "DEFAULTS"]
+__all__ = ["run_passby", "read_config", "track_of", "WHEEL_MODELS", "CONTACT_FILTERS",
+           "DEFAULTS"]
 
-WHEEL_MODELS = ("rigid", "flexible")
-CONTACT_FILTERS = contact.FILTERS
+WHEEL_MODELS = chain.WHEEL_MODELS
+CONTACT_FILTERS = chain.CONTACT_FILTERS
 DEFAULTS = dict(preset="site", model="wfe-discrete", speed_kmh=216.0, train=None,
                 roughness=None, roughness_select=None, roughness_hold=False, wheel="rigid",
                 wheel_mass=None,
@@ -66,34 +65,20 @@ def read_config(path) -> dict:
     return data
 
 
-def make_wheel(kind, frequency, *, mass=None, progress=None):
-    """'rigid', 'flexible' or the path of an FRF CSV file -> a wheel model."""
-    mass = mass or wheels.DEFAULT_UNSPRUNG_MASS
-    if kind == "rigid":
-        return wheels.RigidWheel(mass=mass)
-    if kind == "flexible":
-        return wheels.flexible_wheel(mass=mass, f_max=float(np.max(frequency)),
-                                     progress=progress)
-    path = Path(str(kind))
-    if not path.is_file():
-        raise ValueError(f"wheel = {kind!r}: choose 'rigid', 'flexible' or an existing FRF "
-                         "CSV file of the wheel mobility")
-    return wheels.read_wheel_mobility(path)
+def track_of(track, options: dict):
+    """The TrackSpec of a run: ``track`` (a TrackSpec; the 'model' option, if given,
+    replaces its model) or the Table 1 ``preset`` of the options with their model."""
+    from ..spec import TrackSpec, preset
 
-
-def roughness_spectrum(source, select=None) -> rough.RoughnessSpectrum:
-    """None: the default straight-line spectrum; a path: a railfem spectrum CSV or the SBB
-    wide table (recognised by its 'rail' and wavelength columns)."""
-    if source is None:
-        return rough.sloped_spectrum(0.0, 10.0, name="default: 0 dB re 1 um at 10 mm, "
-                                                      "+10 dB/decade of wavelength")
-    path = Path(source)
-    if not path.is_file():
-        raise ValueError(f"roughness file {path} does not exist")
-    head = path.read_text().splitlines()[0]
-    if head.startswith("loc,") or ",rail," in head:
-        return rough.read_sbb_roughness(path, select=select)
-    return rough.read_spectrum_csv(path)
+    if track is None:
+        return preset(options.get("preset", DEFAULTS["preset"]),
+                      model=options.get("model", DEFAULTS["model"]))
+    if not isinstance(track, TrackSpec):
+        raise ValueError(f"track = {track!r}: give a railfem.spec.TrackSpec (or the preset "
+                         "option with a Table 1 name)")
+    if "preset" in options:
+        raise ValueError("give either a track (TrackSpec) or a preset, not both")
+    return track.replace(model=options["model"]) if "model" in options else track
 
 
 def _check(opts):
@@ -115,94 +100,102 @@ def _check(opts):
                          f"{opts['f_high']} Hz: use at least {2.3 * opts['f_high']:.0f} Hz")
 
 
-def run_passby(out_dir, *, tables: P.RailTables | None = None, cache=None,
+def _inputs(opts, f):
+    """(train, roughness spectrum, wheel model) of the options: files read here."""
+    from ..io.roughness_table import read_roughness
+    from ..io.wheel_frf import read_wheel_frf
+
+    train = opts["train"] if isinstance(opts["train"], TrainLayout) else (
+        default_train() if opts["train"] is None else read_train_layout(opts["train"]))
+    spectrum = chain.default_roughness() if opts["roughness"] is None else \
+        read_roughness(opts["roughness"], opts["roughness_select"])
+    wheel = opts["wheel"]
+    if wheel not in WHEEL_MODELS:
+        wheel = read_wheel_frf(wheel)
+    elif wheel == "flexible":
+        wheel = chain.make_wheel(wheel, f, mass=opts["wheel_mass"],
+                                 progress=progress_logger("wheel modes"))
+    return train, spectrum, wheel
+
+
+def run_passby(out_dir, *, track=None, tables: P.RailTables | None = None, cache=None,
                **options) -> dict:
     """Simulate a pass-by and write its files (see the module docstring).
 
-    options: see DEFAULTS (speed in km/h, frequencies in Hz, lengths in m). tables: rail
-    tables from P.rail_tables to reuse (their frequencies and model win)."""
+    track: the track, a railfem.spec.TrackSpec (default: the ``preset`` option, a Table 1
+    name, with the ``model`` option). options: see DEFAULTS (speed in km/h, frequencies in
+    Hz, lengths in m). tables: rail tables from P.rail_tables to reuse (their frequencies
+    and model win)."""
     unknown = set(options) - set(DEFAULTS)
     if unknown:
         raise ValueError(f"unknown pass-by options {sorted(unknown)}")
-    opts = {**DEFAULTS, **options}
+    spec = track_of(track, options)
+    opts = {**DEFAULTS, **options, "preset": spec.name, "model": spec.model}
     _check(opts)
     t0 = time.perf_counter()
     out = prepare_output_dir(out_dir, "passby")
-    tp: TrackPreset = get_preset(opts["preset"]) if isinstance(opts["preset"], str) \
-        else opts["preset"]
-    train = opts["train"] if isinstance(opts["train"], TrainLayout) else (
-        default_train() if opts["train"] is None else read_train_layout(opts["train"]))
-    spec = roughness_spectrum(opts["roughness"], opts["roughness_select"])
     speed = opts["speed_kmh"] / 3.6
     f = iec61260.ninth_octave_grid(opts["f_low"], opts["f_high"]) if tables is None \
         else tables.frequency
-    # fails early if the spectrum does not cover the frequencies (unless told to hold)
-    amp = rough.amplitude_at(spec, f, speed,
-                             outside="hold" if opts["roughness_hold"] else "raise")
-    wheel = make_wheel(opts["wheel"], f, mass=opts["wheel_mass"],
-                       progress=progress_logger("wheel modes"))
-    load = opts["wheel_load"] or contact.DEFAULT_WHEEL_LOAD
-    hz = contact.hertz(load, wheel_radius=wheels.DEFAULT_WHEEL_RADIUS)
-    if tables is None:
-        tables = P.rail_tables(tp, f, model=opts["model"], continuous=opts["continuous"],
-                               max_distance=opts["max_distance"], cache=cache,
-                               progress=progress_logger("rail tables"))
-    t_tables = time.perf_counter()
-    r = amp * np.sqrt(contact.filter_power(opts["contact_filter"], f, speed, hz))
-    aw, ac = wheel.receptance(f), contact.contact_receptance(hz, f)
-    common = dict(output=opts["output"], interaction=opts["interaction"],
-                  before=opts["before"], after=opts["after"],
-                  settings={"speed_m_per_s": speed, "roughness": spec.name,
-                            "wheel": getattr(wheel, "name", type(wheel).__name__),
-                            "contact_filter": opts["contact_filter"]})
-    res = P.simulate_passby(tables, train, aw, ac, r, form=opts["form"], **common)
-    other = P.simulate_passby(tables, train, aw, ac, r,
-                              form="paper" if opts["form"] == "exact" else "exact", **common)
-    exact, paper = (res, other) if opts["form"] == "exact" else (other, res)
-    t_sim = time.perf_counter()
+    train, spectrum, wheel = _inputs(opts, f)
+    run = chain.passby_chain(
+        spec, train, speed, frequency=f, roughness=spectrum,
+        roughness_hold=opts["roughness_hold"], wheel=wheel, wheel_mass=opts["wheel_mass"],
+        wheel_load=opts["wheel_load"], contact_filter=opts["contact_filter"],
+        form=opts["form"], output=opts["output"], interaction=opts["interaction"],
+        continuous=opts["continuous"], before=opts["before"], after=opts["after"],
+        max_distance=opts["max_distance"], tables=tables, cache=cache,
+        progress=progress_logger("rail tables"))
+    res, exact, paper, hz = run.result, run.exact, run.paper, run.hertz
     paths = _write_tables(out, res, exact, paper, train)
-    paths.update(_plots(out, res, exact, paper, wheel, f, tp, opts))
+    paths.update(_plots(out, res, exact, paper, run.wheel, f, spec, opts))
     summary = {
-        "command": "passby", "preset": tp.name, "model": tables.description, "speed_m_per_s": speed,
+        "command": "passby", "preset": spec.name, "model": run.tables.description,
+        "speed_m_per_s": speed,
         "train": {"name": train.name, "n_wheels": train.n_wheels, "length_m": train.length,
                   "axle_offsets_m": list(train.offsets)},
-        "roughness": spec.name, "wheel": getattr(wheel, "name", str(opts["wheel"])),
+        "roughness": spectrum.name, "wheel": getattr(run.wheel, "name", str(opts["wheel"])),
         "contact": {"load_n": hz.load, "a_m": hz.a, "b_m": hz.b, "stiffness_n_per_m":
                     hz.stiffness},
         "options": {k: (v if isinstance(v, (int, float, str, bool, type(None), list, tuple))
                         else str(v)) for k, v in opts.items()},
+        "track": spec_to_dict(spec),
         "band_hz": res.bands.nominal.tolist(),
         "passby_level_db": np.round(res.average_level(), 3).tolist(),
         "exact_minus_paper_db": np.round(exact.average_level() - paper.average_level(),
                                          3).tolist(),
-        "runtime_s": {"tables": t_tables - t0, "simulation": t_sim - t_tables},
+        "runtime_s": dict(run.seconds),
     }
     if opts["signal"]:
-        from ..simulate import signals
-
-        quasi = signals.quasi_static(tp, load)
-        sig, truth = signals.synthesise(res, train, speed, sample_rate=opts["sample_rate"],
-                                        quantity=opts["quantity"], quasi=quasi,
-                                        noise_fraction=opts["noise_fraction"],
-                                        position_error=opts["position_error"],
-                                        seed=opts["seed"])
-        truth["roughness"] = {"name": spec.name, "wavelength_m": spec.wavelength.tolist(),
-                              "level_db_re_1um": spec.level.tolist()}
-        truth["track"] = {"preset": tp.name, "model": tables.description}
-        from ..io.recording import write_recording
-
-        rec = signals.passby_recording(sig, truth, spacing=tp.spacing, location=opts["output"],
-                                       speed_known=opts["speed_known"])
-        rec_paths = write_recording(out / "passby", rec, data_format=opts["data_format"],
-                                    truth=truth)
-        paths.update({f"recording_{k}": v for k, v in rec_paths.items()})
+        paths.update(_signal(out, run, spec, train, opts))
     summary["runtime_s"]["total"] = time.perf_counter() - t0
     summary["files"] = {k: str(v) for k, v in paths.items()}
     paths["json"] = write_text_atomic(out / "run.json", json.dumps(summary, indent=2) + "\n")
     summary["files"]["json"] = str(paths["json"])
-    log.info("pass-by %s at %.0f km/h: %.1f s (tables %.1f s)", tp.name, opts["speed_kmh"],
+    log.info("pass-by %s at %.0f km/h: %.1f s (tables %.1f s)", spec.name, opts["speed_kmh"],
              summary["runtime_s"]["total"], summary["runtime_s"]["tables"])
     return summary
+
+
+def _signal(out, run, spec, train, opts) -> dict:
+    """The time signal of the pass-by as a recording (truth apart)."""
+    from ..io.recording import write_recording
+    from ..simulate import signals
+
+    quasi = signals.quasi_static(spec, run.hertz.load)
+    sig, truth = signals.synthesise(run.result, train, run.speed,
+                                    sample_rate=opts["sample_rate"], quantity=opts["quantity"],
+                                    quasi=quasi, noise_fraction=opts["noise_fraction"],
+                                    position_error=opts["position_error"], seed=opts["seed"])
+    truth["roughness"] = {"name": run.roughness.name,
+                          "wavelength_m": run.roughness.wavelength.tolist(),
+                          "level_db_re_1um": run.roughness.level.tolist()}
+    truth["track"] = {"preset": spec.name, "model": run.tables.description}
+    rec = signals.passby_recording(sig, truth, spacing=spec.spacing, location=opts["output"],
+                                   speed_known=opts["speed_known"])
+    rec_paths = write_recording(out / "passby", rec, data_format=opts["data_format"],
+                                truth=truth)
+    return {f"recording_{k}": v for k, v in rec_paths.items()}
 
 
 def _write_tables(out, res, exact, paper, train) -> dict:
@@ -231,7 +224,7 @@ def _write_tables(out, res, exact, paper, train) -> dict:
     return paths
 
 
-def _plots(out, res, exact, paper, wheel, f, tp, opts) -> dict:
+def _plots(out, res, exact, paper, wheel, f, spec, opts) -> dict:
     from .. import plotting
 
     paths = {}
@@ -245,13 +238,13 @@ def _plots(out, res, exact, paper, wheel, f, tp, opts) -> dict:
                                      np.column_stack(cols), labels)
     top = float(np.nanmax(np.where(np.isfinite(cols), cols, np.nan)))
     ax.set_ylim(top - 80.0, top + 5.0)  # no wheel within reach gives -inf / round-off levels
-    ax.set_title(f"{tp.name} track, {opts['speed_kmh']:g} km/h, {opts['output']} sensor")
+    ax.set_title(f"{spec.name} track, {opts['speed_kmh']:g} km/h, {opts['output']} sensor")
     paths["levels_png"] = plotting.save_figure(ax.figure, out / "level_vs_position.png")
     ax = plotting.plot_band_values(res.bands.nominal,
                                    np.column_stack([exact.average_level(), paper.average_level()]),
                                    ["exact", "paper's form"],
                                    ylabel="Pass-by level (dB re 1e-9 m/s)")
-    ax.set_title(f"{tp.name} track, {opts['wheel']} wheel")
+    ax.set_title(f"{spec.name} track, {opts['wheel']} wheel")
     paths["spectrum_png"] = plotting.save_figure(ax.figure, out / "passby_spectrum.png")
     fb = iec61260.band_average(res.frequency, np.sqrt(res.force_sq.mean(axis=1)), res.bands)
     ax = plotting.plot_band_values(res.bands.nominal, 20 * np.log10(fb[:, [0, -1]]),

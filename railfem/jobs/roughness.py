@@ -136,8 +136,9 @@ def run_roughness(recordings, out_dir, *, track: str, method: str = "full",
     from ..estimators.passby_level import passby_level
     from ..identify import roughness as RM
     from ..io.recording import read_rail_recordings
-    from .passby import make_wheel
+    from ..io.wheel_frf import read_wheel_frf
     from ..simulate import passby as P
+    from ..simulate.chain import WHEEL_MODELS, make_wheel
     from ..standards.iec61260 import ninth_octave_grid, third_octave_bands
 
     t0 = time.perf_counter()
@@ -153,6 +154,9 @@ def run_roughness(recordings, out_dir, *, track: str, method: str = "full",
                              "existing dataset) or an existing decay-rate table file")
     if a_terms not in A_TERMS:
         raise ValueError(f"--a-terms {a_terms!r}: choose one of {', '.join(A_TERMS)}")
+    if wheel not in WHEEL_MODELS and not Path(str(wheel)).is_file():
+        raise ValueError(f"--wheel {wheel!r}: choose 'rigid', 'flexible' or an existing FRF "
+                         "CSV file of the wheel mobility")
     if contact_filter not in C.FILTERS:
         raise ValueError(f"--contact-filter {contact_filter!r}: choose one of "
                          f"{', '.join(C.FILTERS)}")
@@ -171,7 +175,7 @@ def run_roughness(recordings, out_dir, *, track: str, method: str = "full",
     levels = [passby_level(r, f_low, f_high, wheels=w, speed=speed, detect=detect)
               for r, w in zip(recs, wheels)]
     hz = C.hertz()
-    wheel_model = make_wheel(wheel, f)
+    wheel_model = make_wheel(wheel, f) if wheel in WHEEL_MODELS else read_wheel_frf(wheel)
     aw = wheel_model.receptance(f)
     ac = C.contact_receptance(hz, f)
     sensor_x = [r.channel.x_from_support for r in recs]

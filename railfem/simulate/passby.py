@@ -86,23 +86,25 @@ class RailTables:
         return float(min(-self.response_x[0], self.response_x[-1] - self.period))
 
 
-def rail_tables(track, frequency, *, model: str | None = None, step: float = DEFAULT_STEP,
+def rail_tables(spec, frequency, *, model: str | None = None, step: float = DEFAULT_STEP,
                 max_distance: float = 30.0, continuous: bool = False, cache=None,
                 progress=None) -> RailTables:
     """THE adapter to the track model: receptance tables for the pass-by, from the model
     door (railfem.models.receptance).
 
-    track: a railfem.spec.TrackSpec, or a Table 1 preset name. model: overrides the spec's
-    model kind (default: the spec's; 'wfe-discrete' for a preset name). continuous: the
-    'position-independent rail' switch (the continuous-support counterpart of the model,
-    point supports). max_distance: largest force-response separation (m); transfers beyond
-    it are taken as zero (the log says how small they were). cache: the door's kernel cache.
+    spec: the track, a railfem.spec.TrackSpec (railfem.spec.preset(name) for a Table 1
+    track). model: overrides the spec's model kind. continuous: the 'position-independent
+    rail' switch (the continuous-support counterpart of the model, point supports).
+    max_distance: largest force-response separation (m); transfers beyond it are taken as
+    zero (the log says how small they were). cache: the door's kernel cache.
     """
     from ..models import receptance
-    from ..spec import TrackSpec, preset
+    from ..spec import TrackSpec
 
-    spec = track if isinstance(track, TrackSpec) else preset(
-        getattr(track, "name", track), model=model or "wfe-discrete")
+    if not isinstance(spec, TrackSpec):
+        raise TypeError(f"rail_tables takes a railfem.spec.TrackSpec, got "
+                        f"{type(spec).__name__}: use railfem.spec.preset(name) for a Table 1 "
+                        "track")
     model = model or spec.model
     if model not in CONTINUOUS_OF:
         raise ValueError(f"unknown track model {model!r}; choose one of "

@@ -80,18 +80,22 @@ class QuasiStatic:
         return -self.load * b**2 / self.foundation * np.exp(-b * np.abs(x)) * np.sin(b * x)
 
 
-def quasi_static(track, load: float, EI: float | None = None) -> QuasiStatic:
-    """QuasiStatic for a TrackPreset (static K_s(0) = kp kb/(kp + kb) per sleeper spacing)
-    and wheel load;
-    EI defaults to the EN 13674-1 60E1 value (E = 210 GPa, I = 3038.3 cm^4)."""
+def quasi_static(spec, load: float, EI: float | None = None) -> QuasiStatic:
+    """QuasiStatic for a track (a railfem.spec.TrackSpec: its support and sleeper spacing,
+    static K_s(0) = kp kb/(kp + kb) per spacing) and wheel load (N); EI defaults to the
+    EN 13674-1 60E1 value (E = 210 GPa, I = 3038.3 cm^4)."""
     from dataclasses import replace
 
+    from ..spec import TrackSpec
     from ..track.supports import dynamic_stiffness
 
+    if not isinstance(spec, TrackSpec):
+        raise TypeError(f"quasi_static takes a railfem.spec.TrackSpec, got "
+                        f"{type(spec).__name__}")
     # static stiffness: pad and ballast in series without their loss factors
-    elastic = replace(track.support, eta_p=0.0, eta_b=0.0)
+    elastic = replace(spec.support, eta_p=0.0, eta_b=0.0)
     ks = float(np.real(dynamic_stiffness(elastic, np.array([0.0]))[0]))
-    return QuasiStatic(load=load, EI=EI or 2.1e11 * 3038.3e-8, foundation=ks / track.spacing)
+    return QuasiStatic(load=load, EI=EI or 2.1e11 * 3038.3e-8, foundation=ks / spec.spacing)
 
 
 def _db(v: np.ndarray) -> np.ndarray:

@@ -128,7 +128,7 @@ def _plots(out: Path, results, files: dict, sbb) -> None:
 def _add_sbb(ax, sbb, every_row: bool = False) -> bool:
     """Plot the SBB rail roughness table ``sbb`` (the energy average of all rows; each
     section's average with every_row); False if there is none."""
-    from ..wheelrail.roughness import read_sbb_roughness
+    from ..io.roughness_table import read_sbb_roughness
 
     if sbb is None:
         return False

@@ -33,7 +33,8 @@ from ..track import wfe as track
 from ..rail import waveguide
 from ..materials import Material
 from ..standards import en15461, iec61260
-from ..track.supports import TrackPreset, preset as get_preset, uniform_layout
+from ..spec import TrackSpec, preset as get_preset
+from ..track.supports import uniform_layout
 
 log = logging.getLogger(__name__)
 
@@ -103,24 +104,32 @@ class DecayResult:
 
 @dataclass
 class Rails:
-    """Assembled rails by element size, shared by the cases of a study."""
+    """Assembled rails by element size, shared by the cases of a study (the rail material
+    of the track ``spec``: its loss factor)."""
 
-    tp: TrackPreset
+    spec: TrackSpec
     profile: str = "60E1"
     guides: dict = field(default_factory=dict)
 
     def get(self, h: float):
         if h not in self.guides:
             mesh = meshing.get_mesh(self.profile, h)
-            self.guides[h] = waveguide.assemble(mesh, Material.steel(self.tp.eta_r))
+            self.guides[h] = waveguide.assemble(mesh, Material.steel(self.spec.rail.eta))
         return self.guides[h]
 
 
-def pad_band(tp: TrackPreset, guide) -> tuple[float, float]:
+def track_spec(track: str | TrackSpec) -> TrackSpec:
+    """The track of a study: a TrackSpec as given, a Table 1 name as railfem.spec.preset.
+    The studies take its support, sleeper spacing and rail loss factor; the support
+    discretisation is each SupportCase's."""
+    return track if isinstance(track, TrackSpec) else get_preset(track)
+
+
+def pad_band(spec: TrackSpec, guide) -> tuple[float, float]:
     """Search band (Hz) of the rail-on-pad resonance: 0.6 to 1.4 times
     sqrt(k_p / (m' d)) / 2 pi, m' the rail mass per metre of the section mesh."""
     mass = guide.material.rho * section.section_constants(guide.mesh).area
-    f0 = np.sqrt(tp.support.kp / (mass * tp.spacing)) / (2 * np.pi)
+    f0 = np.sqrt(spec.support.kp / (mass * spec.spacing)) / (2 * np.pi)
     return 0.6 * f0, 1.4 * f0
 
 
@@ -128,13 +137,13 @@ def _springs(guide, case: SupportCase):
     return track.foot_springs(guide, case.n_width, rule=case.rule)
 
 
-def head_point_mobility(guide, tp: TrackPreset, case: SupportCase, f,
+def head_point_mobility(guide, spec: TrackSpec, case: SupportCase, f,
                         n_supports: int = 41) -> np.ndarray:
     """|Y| (m/s/N) of the head point mobility at frequencies f (Hz) on the discrete track
     of ``case`` (sensor at mid-span, hammer POINT_OFFSET away); the frozen tail is taken at
     TAIL_FREQUENCY for every call (one shared, cached tail)."""
-    d = tp.spacing
-    layout = uniform_layout(tp.support, d, n_supports, pad_length=case.pad_length,
+    d = spec.spacing
+    layout = uniform_layout(spec.support, d, n_supports, pad_length=case.pad_length,
                             n_rows=case.n_rows)
     freq = np.concatenate([[TAIL_FREQUENCY], np.atleast_1d(f)])
     r = track.discrete_receptance(
@@ -144,7 +153,7 @@ def head_point_mobility(guide, tp: TrackPreset, case: SupportCase, f,
     return np.abs(r.mobility[1:, 0, 0, 0])
 
 
-def rail_pad_peak(case: SupportCase, preset: str | TrackPreset = "site", *,
+def rail_pad_peak(case: SupportCase, track: str | TrackSpec = "site", *,
                   n_supports: int = 41, step: float = 20.0, xtol: float = 0.05,
                   rails: Rails | None = None) -> PeakResult:
     """Frequency and level of the rail-on-pad resonance of the head point mobility.
@@ -152,16 +161,17 @@ def rail_pad_peak(case: SupportCase, preset: str | TrackPreset = "site", *,
     |Y| is computed on a grid of ``step`` (Hz) over ``pad_band``; the largest value is then
     refined by bounded Brent minimisation of -|Y(f)| within one step on either side, to
     ``xtol`` (Hz). n_supports discrete supports centred on the sensor span (41 give the
-    peak of 131 to the grid resolution on the site track; the study reports the check)."""
+    peak of 131 to the grid resolution on the site track; the study reports the check).
+    track: a TrackSpec or a Table 1 name (track_spec)."""
     from scipy.optimize import minimize_scalar
 
-    tp = get_preset(preset) if isinstance(preset, str) else preset
-    rails = rails or Rails(tp)
+    spec = track_spec(track)
+    rails = rails or Rails(spec)
     guide = rails.get(case.h)
     t0 = time.perf_counter()
-    lo, hi = pad_band(tp, guide)
+    lo, hi = pad_band(spec, guide)
     grid = np.arange(np.ceil(lo / step) * step, hi + 1e-9, step)
-    Y = head_point_mobility(guide, tp, case, grid, n_supports)
+    Y = head_point_mobility(guide, spec, case, grid, n_supports)
     i = int(np.argmax(Y))
     if i in (0, len(grid) - 1):
         raise ValueError(f"{case.label}: the largest mobility in {lo:.0f}-{hi:.0f} Hz lies "
@@ -170,7 +180,7 @@ def rail_pad_peak(case: SupportCase, preset: str | TrackPreset = "site", *,
 
     def minus(f):
         count[0] += 1
-        return -float(head_point_mobility(guide, tp, case, [f], n_supports)[0])
+        return -float(head_point_mobility(guide, spec, case, [f], n_supports)[0])
 
     res = minimize_scalar(minus, bounds=(grid[i - 1], grid[i + 1]), method="bounded",
                           options={"xatol": xtol})
@@ -183,24 +193,25 @@ def rail_pad_peak(case: SupportCase, preset: str | TrackPreset = "site", *,
     return out
 
 
-def decay_rates(case: SupportCase, preset: str | TrackPreset = "site", *,
+def decay_rates(case: SupportCase, track: str | TrackSpec = "site", *,
                 f_low: float = 100.0, f_high: float = 4000.0,
                 rails: Rails | None = None) -> DecayResult:
     """EN 15461 decay rates (head and foot sensor) per one-third-octave band of the
     periodic track: sensor at mid-span, hammer at the 29 positions (position 0 realised
-    POINT_OFFSET from the sensor, as in ``railfem track``)."""
-    tp = get_preset(preset) if isinstance(preset, str) else preset
-    rails = rails or Rails(tp)
+    POINT_OFFSET from the sensor, as in ``railfem track``). track: a TrackSpec or a
+    Table 1 name (track_spec)."""
+    spec = track_spec(track)
+    rails = rails or Rails(spec)
     guide = rails.get(case.h)
     t0 = time.perf_counter()
-    d = tp.spacing
+    d = spec.spacing
     pos = en15461.hammer_positions(d)
     fx = d / 2 + np.where(pos == 0, POINT_OFFSET, pos)
     f = iec61260.ninth_octave_grid(f_low, f_high)
     freq = np.concatenate([[TAIL_FREQUENCY], f]) if f.min() > TAIL_FREQUENCY else f
     outputs = [mobility.point(guide, "head_top", label="head"),
                mobility.point(guide, "foot_sensor", label="foot")]
-    r = track.periodic_receptance(guide, tp.support, d, freq,
+    r = track.periodic_receptance(guide, spec.support, d, freq,
                                   load=mobility.head_patch(guide, 0.02), outputs=outputs,
                                   force_x=fx, response_x=[d / 2], pad_length=case.pad_length,
                                   n_rows=case.n_rows, n_f=_springs(guide, case))
@@ -240,24 +251,25 @@ def sweeps(sizes, widths, rows=(1, 2, 3, 6), pad_lengths=(0.0, 0.15), *,
     return out
 
 
-def support_study(cases: dict, preset: str = "site", *, decay: bool = False,
+def support_study(cases: dict, track: str | TrackSpec = "site", *, decay: bool = False,
                   n_supports: int = 41, profile: str = "60E1", progress=None) -> dict:
     """Peaks (and with ``decay`` the decay rates) of every case of ``cases`` ({key: [case]},
     e.g. from ``sweeps``); a case shared by several sweeps is computed once and rails are
-    assembled once per h. Returns {"peaks": {key: [PeakResult]}, "decay": {key: [...]}}."""
+    assembled once per h. track: a TrackSpec or a Table 1 name (track_spec). Returns
+    {"peaks": {key: [PeakResult]}, "decay": {key: [...]}}."""
     if not cases or not all(cases.values()):
         raise ValueError("support_study needs at least one SupportCase per sweep")
-    tp = get_preset(preset)
-    rails = Rails(tp, profile)
+    spec = track_spec(track)
+    rails = Rails(spec, profile)
     unique = list(dict.fromkeys(c for group in cases.values() for c in group))
     unique.sort(key=lambda c: -c.h)  # one rail at a time, coarse first
     peaks, rates = {}, {}
     for i, case in enumerate(unique):
         if case.h not in rails.guides:
             rails.guides.clear()  # keep one assembled rail in memory
-        peaks[case] = rail_pad_peak(case, tp, n_supports=n_supports, rails=rails)
+        peaks[case] = rail_pad_peak(case, spec, n_supports=n_supports, rails=rails)
         if decay:
-            rates[case] = decay_rates(case, tp, rails=rails)
+            rates[case] = decay_rates(case, spec, rails=rails)
         if progress:
             progress(i + 1, len(unique))
     return {"peaks": {k: [peaks[c] for c in v] for k, v in cases.items()},
@@ -324,5 +336,5 @@ def decay_csv(rates: dict) -> str:
 
 __all__ = ["PEAK_COLUMNS", "POINT_OFFSET", "TAIL_FREQUENCY", "DecayResult", "PeakResult",
            "Rails", "SupportCase", "changes", "decay_csv", "decay_rates", "head_point_mobility",
-           "pad_band",
+           "pad_band", "track_spec",
            "peak_csv", "peak_rows", "peak_table", "rail_pad_peak", "support_study", "sweeps"]

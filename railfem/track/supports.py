@@ -328,28 +328,6 @@ def continuous_stiffness(params: SupportParameters, omega, spacing: float = DEFA
 # Table 1 presets
 
 
-@dataclass(frozen=True, kw_only=True)
-class TrackPreset:
-    """A named track parameter set of METHOD.md Table 1.
-
-    name: key in PRESETS. support: SupportParameters per fastener and rail.
-    eta_r: rail loss factor (-), E* = E (1 + i eta_r). spacing: sleeper spacing (m).
-    description: free text.
-    """
-
-    name: str
-    support: SupportParameters
-    eta_r: float
-    spacing: float = DEFAULT_SPACING
-    description: str = ""
-
-    def __post_init__(self):
-        if not np.isfinite(self.eta_r) or self.eta_r < 0:
-            raise ValueError(f"TrackPreset.eta_r = {self.eta_r!r}: use a rail loss factor >= 0")
-        if not np.isfinite(self.spacing) or self.spacing <= 0:
-            raise ValueError(f"TrackPreset.spacing = {self.spacing!r} m: use a spacing > 0 m")
-
-
 #: Horizontal support of the presets relative to their vertical values (docs/presets.md
 #: gives the sources and what is assumed): lateral and longitudinal pad stiffness a
 #: seventh of the vertical (the middle of the 1/5-1/10 range quoted for rail fasteners,
@@ -367,36 +345,40 @@ def horizontal_support(kp: float, eta_p: float, kb: float, eta_b: float,
                 eta_p_long=eta_p, kb_lat=kb * r["ballast"], eta_b_lat=eta_b, ms_lat=ms)
 
 
-def _table1(name, kp_mn, eta_p, kb_mn, eta_b, eta_r, description):
-    kp, kb = kp_mn * 1e6, kb_mn * 1e6
-    return TrackPreset(
-        name=name,
-        support=SupportParameters(kp=kp, eta_p=eta_p, ms=DEFAULT_SLEEPER_MASS, kb=kb,
-                                  eta_b=eta_b, **horizontal_support(kp, eta_p, kb, eta_b)),
-        eta_r=eta_r, description=description)
-
-
-PRESETS: dict[str, TrackPreset] = {
-    p.name: p
-    for p in (
-        _table1("stiff", 600, 0.05, 48, 2.0, 0.05, "stiff pads (METHOD.md Table 1)"),
-        _table1("medium", 300, 0.10, 90, 1.5, 0.04, "medium pads (METHOD.md Table 1)"),
-        _table1("soft", 120, 0.15, 120, 1.0, 0.03, "soft pads (METHOD.md Table 1)"),
-        _table1("very_soft", 60, 0.20, 360, 0.5, 0.02, "very soft pads (METHOD.md Table 1)"),
-        _table1("site", 600, 0.25, 42, 1.0, 0.01,
-                "site, estimated, unloaded (METHOD.md Table 1)"),
-    )
+#: METHOD.md Table 1: name -> (kp MN/m, eta_p, kb MN/m, eta_b, eta_r, description); kp and
+#: kb per fastener and rail, eta_r the rail loss factor. railfem.spec.preset(name) is the
+#: track (a TrackSpec) made of these numbers, the sleeper spacing DEFAULT_SPACING and the
+#: sleeper mass DEFAULT_SLEEPER_MASS.
+TABLE1 = {
+    "stiff": (600, 0.05, 48, 2.0, 0.05, "stiff pads (METHOD.md Table 1)"),
+    "medium": (300, 0.10, 90, 1.5, 0.04, "medium pads (METHOD.md Table 1)"),
+    "soft": (120, 0.15, 120, 1.0, 0.03, "soft pads (METHOD.md Table 1)"),
+    "very_soft": (60, 0.20, 360, 0.5, 0.02, "very soft pads (METHOD.md Table 1)"),
+    "site": (600, 0.25, 42, 1.0, 0.01, "site, estimated, unloaded (METHOD.md Table 1)"),
 }
 
 
-def preset(name: str) -> TrackPreset:
-    """The Table 1 preset ``name`` (one of PRESETS; 'very soft' and 'very-soft' also work)."""
+def _table1_support(kp_mn, eta_p, kb_mn, eta_b) -> SupportParameters:
+    kp, kb = kp_mn * 1e6, kb_mn * 1e6
+    return SupportParameters(kp=kp, eta_p=eta_p, ms=DEFAULT_SLEEPER_MASS, kb=kb, eta_b=eta_b,
+                             **horizontal_support(kp, eta_p, kb, eta_b))
+
+
+#: The supports of the Table 1 tracks (name -> SupportParameters per fastener and rail).
+PRESETS: dict[str, SupportParameters] = {
+    name: _table1_support(*row[:4]) for name, row in TABLE1.items()}
+#: The rail loss factors of the Table 1 tracks (name -> eta_r).
+RAIL_LOSS_FACTORS: dict[str, float] = {name: row[4] for name, row in TABLE1.items()}
+
+
+def preset_key(name: str) -> str:
+    """The key in PRESETS of a Table 1 track ``name`` ('very soft' and 'very-soft' also
+    work); KeyError naming the valid ones otherwise."""
     key = str(name).strip().lower().replace(" ", "_").replace("-", "_")
-    try:
-        return PRESETS[key]
-    except KeyError:
+    if key not in PRESETS:
         raise KeyError(
-            f"unknown track preset {name!r}; valid names: {', '.join(PRESETS)}") from None
+            f"unknown track preset {name!r}; valid names: {', '.join(PRESETS)}")
+    return key
 
 
 # ---------------------------------------------------------------------------------------------
@@ -556,8 +538,9 @@ def foot_spring_weights(y_nodes, foot_width: float) -> np.ndarray:
 
 
 __all__ = [
-    "FractionalZener", "FootDashpot", "RailAbsorber", "SupportParameters", "dynamic_stiffness", "support_receptance", "continuous_stiffness",
-    "TrackPreset", "PRESETS", "preset", "SpringSet", "SupportLayout", "uniform_layout",
-    "with_support", "foot_spring_weights", "DEFAULT_SPACING", "DEFAULT_SLEEPER_MASS",
-    "DIRECTIONS", "HORIZONTAL_FIELDS", "chain", "directional_stiffness", "acts_in",
+    "FractionalZener", "FootDashpot", "RailAbsorber", "SupportParameters", "dynamic_stiffness",
+    "support_receptance", "continuous_stiffness", "TABLE1", "PRESETS", "RAIL_LOSS_FACTORS",
+    "preset_key", "SpringSet", "SupportLayout", "uniform_layout", "with_support",
+    "foot_spring_weights", "DEFAULT_SPACING", "DEFAULT_SLEEPER_MASS", "DIRECTIONS",
+    "HORIZONTAL_FIELDS", "chain", "directional_stiffness", "acts_in",
 ]

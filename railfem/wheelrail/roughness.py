@@ -12,26 +12,20 @@ multiplied by these amplitudes gives band levels after averaging |.|^2 over the 
 points of each band (METHOD.md section 0); for a spectrum flat within the band this equals
 the band RMS response exactly.
 
-Files: :func:`read_spectrum_csv` reads the two-column ``wavelength_m,level_db`` format
-written by :func:`write_spectrum_csv`; :func:`read_sbb_roughness` reads the wide table of
-the SBB Niederwangen measurements (wavelengths in cm as column names).
+Files: railfem.io.roughness_table reads and writes spectra (railfem's two-column CSV, the
+SBB Niederwangen wide table).
 """
 from __future__ import annotations
 
-import csv
-import io
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from ..conventions import R_REF
 
 __all__ = ["RoughnessSpectrum", "amplitude_at", "frequency_of", "wavelength_of",
-           "wavelength_bands",
-           "read_spectrum_csv", "write_spectrum_csv", "read_sbb_roughness", "sloped_spectrum",
-           "combine"]
+           "wavelength_bands", "sloped_spectrum", "combine"]
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -148,77 +142,3 @@ def combine(*spectra: RoughnessSpectrum, name: str = "combined") -> RoughnessSpe
         power += 10 ** (lev / 10)
     return RoughnessSpectrum(wavelength=first.wavelength, level=10 * np.log10(power),
                              name=name)
-
-
-# ------------------------------------------------------------------------------ files
-def write_spectrum_csv(path, spectrum: RoughnessSpectrum) -> Path:
-    """Write ``wavelength_m,level_db_re_1um`` rows atomically."""
-    from ..atomic import write_text_atomic
-
-    lines = [f"# roughness spectrum: {spectrum.name}",
-             "# RMS roughness per one-third-octave wavelength band, dB re 1 um",
-             "wavelength_m,level_db_re_1um"]
-    lines += [f"{w:.6g},{v:.4f}" for w, v in zip(spectrum.wavelength, spectrum.level)]
-    return write_text_atomic(path, "\n".join(lines) + "\n")
-
-
-def read_spectrum_csv(path) -> RoughnessSpectrum:
-    """Read a ``wavelength_m,level_db_re_1um`` file ('#' lines are comments)."""
-    path = Path(path)
-    rows = [r for r in csv.reader(io.StringIO(path.read_text()))
-            if r and not r[0].lstrip().startswith("#")]
-    if not rows or rows[0][:2] != ["wavelength_m", "level_db_re_1um"]:
-        raise ValueError(f"{path}: expected a header 'wavelength_m,level_db_re_1um' "
-                         "(wavelength in m, level in dB re 1 um per one-third-octave band)")
-    try:
-        data = np.array([[float(r[0]), float(r[1])] for r in rows[1:]])
-    except (ValueError, IndexError):
-        raise ValueError(f"{path}: every data row needs two numbers: wavelength_m,level_db"
-                         ) from None
-    return RoughnessSpectrum(wavelength=data[:, 0], level=data[:, 1], name=path.stem)
-
-
-def read_sbb_roughness(path, *, select: dict | None = None,
-                       average: bool = True) -> list[RoughnessSpectrum] | RoughnessSpectrum:
-    """Read the SBB Niederwangen rail roughness table (one row per measurement; columns
-    named by the band-centre wavelength in cm; levels dB re 1 um; empty cells = no data).
-
-    select: keep rows whose columns equal the given values, e.g. {"sec": "B2", "rail": "L"}.
-    average: return one spectrum, the energy average of the selected rows over the bands
-    all of them cover; otherwise a list (one per row, each over its own bands)."""
-    path = Path(path)
-    with path.open(newline="") as fh:
-        reader = csv.DictReader(fh)
-        lam_cols = [c for c in reader.fieldnames or [] if _is_number(c)]
-        if not lam_cols:
-            raise ValueError(f"{path}: no wavelength columns (numeric names in cm) found")
-        rows = [r for r in reader
-                if all(str(r.get(k, "")) == str(v) for k, v in (select or {}).items())]
-    if not rows:
-        raise ValueError(f"{path}: no row matches {select}")
-    lam = np.array([float(c) * 1e-2 for c in lam_cols])
-    table = np.array([[float(r[c]) if r[c].strip() else np.nan for c in lam_cols]
-                      for r in rows])
-    label = ", ".join(f"{k}={v}" for k, v in (select or {}).items()) or "all rows"
-    if average:
-        ok = np.all(np.isfinite(table), axis=0)
-        if ok.sum() < 2:
-            raise ValueError(f"{path}: the selected rows share fewer than two bands")
-        lev = 10 * np.log10(np.mean(10 ** (table[:, ok] / 10), axis=0))
-        return RoughnessSpectrum(wavelength=lam[ok], level=lev,
-                                 name=f"SBB {path.stem} ({label}, {len(rows)} rows)")
-    out = []
-    for r, vals in zip(rows, table):
-        ok = np.isfinite(vals)
-        out.append(RoughnessSpectrum(wavelength=lam[ok], level=vals[ok],
-                                     name=f"SBB {r.get('sec', '')} {r.get('rail', '')} "
-                                          f"{r.get('messdatum', '')} {r.get('Author', '')}"))
-    return out
-
-
-def _is_number(text: str) -> bool:
-    try:
-        float(text)
-    except ValueError:
-        return False
-    return True

@@ -9,9 +9,9 @@ apart, each displacement measured away from the contact, so in the coupled probl
 * :class:`RigidWheel`: ``alpha = -1 / (omega^2 m)`` with m the unsprung mass per wheel.
 * :class:`ModalWheel`: a modal sum over circumferential harmonics from
   :mod:`railfem.wheelrail.wheelfe`, built by :func:`flexible_wheel`; modal damping per mode.
-* :class:`TabulatedWheel`: a measured or tabulated mobility read from an FRF CSV file
-  (:mod:`railfem.io.frf_csv`), interpolated linearly in log frequency (real and imaginary
-  parts of the receptance times omega^2, which is smooth for a mass-like wheel).
+* :class:`TabulatedWheel`: a measured or tabulated receptance (railfem.io.wheel_frf reads
+  and writes it as an FRF CSV file), interpolated linearly in log frequency (real and
+  imaginary parts of the receptance times omega^2, which is smooth for a mass-like wheel).
 
 The default wheel is a 920 mm passenger wheel (docs/wheels.md): ``DEFAULT_UNSPRUNG_MASS``.
 """
@@ -25,7 +25,7 @@ import numpy as np
 log = logging.getLogger(__name__)
 
 __all__ = ["RigidWheel", "ModalWheel", "TabulatedWheel", "receptance", "flexible_wheel",
-           "read_wheel_mobility", "DEFAULT_UNSPRUNG_MASS", "DEFAULT_WHEEL_RADIUS"]
+           "DEFAULT_UNSPRUNG_MASS", "DEFAULT_WHEEL_RADIUS"]
 
 #: Unsprung mass per wheel (kg): half of a 1200 kg passenger wheelset with brake discs
 #: (an assumed typical value, docs/wheels.md).
@@ -119,19 +119,6 @@ class TabulatedWheel:
 def receptance(wheel, frequency) -> np.ndarray:
     """The radial contact receptance of any wheel model (m/N), frequency on axis 0."""
     return wheel.receptance(frequency)
-
-
-def read_wheel_mobility(path, *, response=None, force=None) -> TabulatedWheel:
-    """A measured/tabulated wheel FRF from a railfem FRF CSV file (any quantity; the
-    first response and force unless named)."""
-    from ..io.frf_csv import read_frf_csv
-
-    frf = read_frf_csv(path)
-    r = frf.response.index(response) if response else 0
-    k = frf.force.index(force) if force else 0
-    rec = frf.to("receptance")
-    return TabulatedWheel(frequency=np.asarray(frf.frequency),
-                          values=np.asarray(rec.values[:, r, k]), name=str(path))
 
 
 def flexible_wheel(*, section=None, h: float | None = None, mass: float = DEFAULT_UNSPRUNG_MASS,
