@@ -75,15 +75,22 @@ def add_mesh_file(p: argparse.ArgumentParser) -> None:
                         "(default: x lateral, y vertical), 'xz', '-y,z', ...")
 
 
-def add_track_options(p: argparse.ArgumentParser) -> None:
-    """The track parameters of ``railfem track`` (rail profile and mesh size, supports,
-    pad geometry, numerics), read by :func:`apply_track_options`."""
-    g = p.add_argument_group("track parameters (override the preset and the config)")
+def add_rail_options(g) -> None:
+    """``--profile`` and ``--h`` (mm) of the track options, on a parser or a group."""
     g.add_argument("--profile", default=None,
                    help="'60E1' (= UIC60, default), 'rect:WIDTHxHEIGHT' in mm, or the path "
                         "of an outline CSV (y,z in mm, counter-clockwise, foot at z = 0)")
     g.add_argument("--h", type=positive, default=None, metavar="MM",
                    help="element size in mm, 0.5 to 100 (default 10)")
+
+
+def add_track_options(p: argparse.ArgumentParser, *, rail: bool = True) -> None:
+    """The track parameters of ``railfem track`` (rail profile and mesh size unless
+    ``rail`` is False, supports, pad geometry, numerics), read by
+    :func:`apply_track_options`."""
+    g = p.add_argument_group("track parameters (override the preset and the config)")
+    if rail:
+        add_rail_options(g)
     g.add_argument("--kp", type=non_negative, default=None, metavar="MN/m",
                    help="rail pad stiffness per fastener, MN/m")
     g.add_argument("--eta-p", type=non_negative, default=None, metavar="ETA",

@@ -7,17 +7,14 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import BadInput, add_profile, count, non_negative, positive, report_written
+from .common import (BadInput, add_profile, add_rail_options, add_track_options,
+                     apply_track_options, count, non_negative, positive, report_written)
 
 
 def track_args(p: argparse.ArgumentParser) -> None:
     from ..spec import MODELS, PRESETS
 
-    p.add_argument("--profile", default=None,
-                   help="'60E1' (= UIC60, default), 'rect:WIDTHxHEIGHT' in mm, or the path "
-                        "of an outline CSV (y,z in mm, counter-clockwise, foot at z = 0)")
-    p.add_argument("--h", type=positive, default=None, metavar="MM",
-                   help="element size in mm, 0.5 to 100 (default 10)")
+    add_rail_options(p)
     p.add_argument("--preset", choices=sorted(PRESETS), default=None,
                    help="track parameter set of METHOD.md Table 1 (default site)")
     p.add_argument("--config", type=Path, default=None, metavar="FILE",
@@ -29,38 +26,7 @@ def track_args(p: argparse.ArgumentParser) -> None:
                         "DIR/run.json)")
     p.add_argument("--model", choices=MODELS, default=None,
                    help="track model (default wfe-discrete)")
-    g = p.add_argument_group("track parameters (override the preset and the config)")
-    g.add_argument("--kp", type=non_negative, default=None, metavar="MN/m",
-                   help="rail pad stiffness per fastener, MN/m")
-    g.add_argument("--eta-p", type=non_negative, default=None, metavar="ETA",
-                   help="rail pad loss factor (-)")
-    g.add_argument("--kb", type=non_negative, default=None, metavar="MN/m",
-                   help="ballast stiffness per fastener and rail, MN/m")
-    g.add_argument("--eta-b", type=non_negative, default=None, metavar="ETA",
-                   help="ballast loss factor (-)")
-    g.add_argument("--ms", type=non_negative, default=None, metavar="KG",
-                   help="sleeper mass per rail, kg")
-    g.add_argument("--eta-r", type=non_negative, default=None, metavar="ETA",
-                   help="rail loss factor (-)")
-    g.add_argument("--spacing", type=positive, default=None, metavar="MM",
-                   help="sleeper spacing, mm (Table 1: 600)")
-    g.add_argument("--pad-length", type=non_negative, default=None, metavar="MM",
-                   help="pad length along the rail, mm (default 150 on discrete and "
-                        "periodic models; 0 = point supports, the published configuration)")
-    g.add_argument("--n-rows", type=count, default=None,
-                   help="spring rows along each pad (default 3)")
-    g.add_argument("--n-supports", type=count, default=None,
-                   help="supports of the discrete models (default 131)")
-    g.add_argument("--n-foot-springs", type=count, default=None,
-                   help="springs across the rail foot per row (default 4)")
-    g.add_argument("--foot-rule", choices=("midpoint", "nodes"), default=None,
-                   help="springs across the foot: midpoint = a distributed bed through the "
-                        "element shape functions (default, converges with the mesh); nodes = "
-                        "point springs at foot nodes (the published configuration, with "
-                        "--n-foot-springs 8 --pad-length 0)")
-    g.add_argument("--support-directions", choices=("z", "zy", "zx", "zyx"), default=None,
-                   help="directions the supports act in (default z, vertical springs only); "
-                        "zyx adds lateral and longitudinal pads and the lateral decay rate")
+    add_track_options(p, rail=False)
     j = p.add_argument_group("job")
     j.add_argument("--f-low", type=positive, default=None, metavar="HZ",
                    help="lowest band (Hz, default 50)")
@@ -75,16 +41,6 @@ def track_args(p: argparse.ArgumentParser) -> None:
                    help="output folder (default railfem-output/track)")
 
 
-def _mm(name: str, value: float | None, low: float, high: float, example: str):
-    """A length given in mm on the command line, checked against a sane range, in m."""
-    if value is None:
-        return None
-    if value != 0 and not low <= value <= high:
-        raise BadInput(f"{name} {value:g} mm: lengths on this command line are in mm; give "
-                       f"a value between {low:g} and {high:g} mm (e.g. {example})")
-    return value * 1e-3
-
-
 def track_spec_from_args(args):
     """(TrackSpec, JobSettings) from the track options: preset < config < options."""
     from dataclasses import replace
@@ -95,9 +51,6 @@ def track_spec_from_args(args):
 
     if args.config is not None and args.from_run is not None:
         raise BadInput("give either --config or --from-run, not both")
-    h = _mm("--h", args.h, 0.5, 100.0, "10")
-    spacing = _mm("--spacing", args.spacing, 100.0, 2000.0, "600")
-    pad = _mm("--pad-length", args.pad_length, 1.0, 1000.0, "150")
     source = args.config if args.config is not None else args.from_run
     spec_d, job_d = read_track_config(source) if source is not None else ({}, {})
     if args.preset:  # an explicit --preset is the base, whatever the config names
@@ -110,25 +63,7 @@ def track_spec_from_args(args):
             raise
         msg = exc.args[0] if isinstance(exc, KeyError) and exc.args else exc
         raise BadInput(f"config {source}: {msg}") from None
-    sup = {k: x for k, x in (("kp", args.kp), ("kb", args.kb)) if x is not None}
-    sup = {k: x * 1e6 for k, x in sup.items()}
-    sup.update({k: x for k, x in (("eta_p", args.eta_p), ("eta_b", args.eta_b),
-                                  ("ms", args.ms)) if x is not None})
-    rail = {k: x for k, x in (("profile", args.profile), ("h", h), ("eta", args.eta_r))
-            if x is not None}
-    top = {k: x for k, x in (("model", args.model), ("spacing", spacing), ("pad_length", pad),
-                             ("n_rows", args.n_rows), ("n_supports", args.n_supports),
-                             ("support_directions", args.support_directions))
-           if x is not None}
-    if sup:
-        top["support"] = replace(spec.support, **sup)
-    if rail:
-        top["rail"] = replace(spec.rail, **rail)
-    num = {k: x for k, x in (("n_foot_springs", args.n_foot_springs),
-                             ("foot_rule", args.foot_rule)) if x is not None}
-    if num:
-        top["numerics"] = replace(spec.numerics, **num)
-    spec = spec.replace(**top)
+    spec = apply_track_options(spec, args)
     jobs = {k: x for k, x in (("f_low", args.f_low), ("f_high", args.f_high)) if x is not None}
     return spec, replace(job, **jobs)
 
