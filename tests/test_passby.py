@@ -14,7 +14,8 @@ from railfem.wheelrail import contact
 from railfem.wheelrail import roughness
 from railfem.wheelrail import wheels
 from railfem.simulate import passby as P
-from railfem.simulate.train import TrainLayout, default_train, from_cars, read_train_layout
+from railfem.io.train import read_train_layout
+from railfem.simulate.train import TrainLayout, default_train, from_cars
 from railfem.standards import en15461, iec61260
 from railfem.track.supports import uniform_layout
 from railfem.models import beam_section

@@ -26,7 +26,8 @@ import numpy as np
 from ..atomic import prepare_output_dir, write_text_atomic
 from ..simulate import chain
 from ..simulate import passby as P
-from ..simulate.train import TrainLayout, default_train, read_train_layout
+from ..io.train import read_train_layout
+from ..simulate.train import TrainLayout, default_train
 from ..spec import spec_to_dict
 from ..standards import iec61260
 from .common import progress_logger

@@ -2,7 +2,7 @@
 
 A layout is a list of axle offsets o_n >= 0 (m) behind the leading wheel (o_0 = 0). Built
 from cars (:func:`from_cars`: car length, bogie centres, axle spacing) or given explicitly;
-read from a TOML or JSON file (:func:`read_train_layout`)::
+read from a TOML or JSON file (railfem.io.train.read_train_layout)::
 
     name = "6-car train"
     [cars]
@@ -15,14 +15,11 @@ or ``axle_offsets_m = [0.0, 2.6, 14.0, ...]``.
 """
 from __future__ import annotations
 
-import json
-import tomllib
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-__all__ = ["TrainLayout", "from_cars", "default_train", "read_train_layout"]
+__all__ = ["TrainLayout", "from_cars", "default_train"]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -81,26 +78,3 @@ def default_train() -> TrainLayout:
     long, bogie centres 14 m apart, axles 2.6 m apart in a bogie (assumed dimensions of a
     typical coach, chosen on the 0.1 m grid)."""
     return from_cars(6, 20.0, (3.0, 17.0), 2.6, name="6-car train, 24 wheels")
-
-
-def read_train_layout(path) -> TrainLayout:
-    """Read a layout from TOML (.toml) or JSON (.json); see the module docstring."""
-    path = Path(path)
-    text = path.read_text()
-    try:
-        data = json.loads(text) if path.suffix.lower() == ".json" else tomllib.loads(text)
-    except (ValueError, tomllib.TOMLDecodeError) as exc:
-        raise ValueError(f"{path}: cannot parse the train layout: {exc}") from None
-    name = str(data.get("name", path.stem))
-    if "axle_offsets_m" in data:
-        return TrainLayout(axle_offsets=tuple(data["axle_offsets_m"]), name=name)
-    if "cars" in data:
-        c = data["cars"]
-        known = {"count", "length_m", "bogie_centres_m", "axle_spacing_m"}
-        if set(c) - known:
-            raise ValueError(f"{path}: unknown [cars] keys {sorted(set(c) - known)}; "
-                             f"use {sorted(known)}")
-        return from_cars(c.get("count", 6), c.get("length_m", 20.0),
-                         tuple(c.get("bogie_centres_m", (3.0, 17.0))),
-                         c.get("axle_spacing_m", 2.6), name=name)
-    raise ValueError(f"{path}: give either axle_offsets_m = [...] or a [cars] table")
