@@ -14,21 +14,20 @@ import sys
 import tempfile
 from pathlib import Path
 
-import numpy as np
-
-from railfem.wheelrail import contact
-from railfem.jobs.passby import run_passby
 from railfem.io.recording import read_recording
+from railfem.jobs.passby import run_passby
+from railfem.spec import preset
+from railfem.wheelrail import contact
 
 
 def main(out: Path) -> dict:
-    s1 = run_passby(out / "simplified", model="timoshenko-discrete", continuous=True,
+    track = preset("site", model="timoshenko-discrete")  # any TrackSpec: track.replace(kp=...)
+    s1 = run_passby(out / "simplified", track=track, continuous=True,
                     interaction=False, output="head", contact_filter="none", f_low=200.0,
                     f_high=2000.0, before=42.0, after=42.0, max_distance=45.0)
     k = s1["band_hz"].index(1000.0)
-    s2 = run_passby(out / "discrete", model="timoshenko-discrete", f_low=100.0,
-                    f_high=2000.0, signal=True, noise_fraction=0.1, position_error=0.1,
-                    seed=1, before=20.0, after=20.0)
+    s2 = run_passby(out / "discrete", track=track, f_low=100.0, f_high=2000.0, signal=True,
+                    noise_fraction=0.1, position_error=0.1, seed=1, before=20.0, after=20.0)
     rec = read_recording(Path(s2["files"]["recording_meta"]))
     print(f"pass-by levels (dB re 1e-9 m/s), discrete site track: "
           f"{dict(zip(s2['band_hz'], s2['passby_level_db']))}")
