@@ -6,6 +6,8 @@ best-supported one and reports the error before and after.
 * :mod:`railfem.diagnosis.effects` — the effect library (one module per effect);
 * :mod:`railfem.diagnosis.data` — records, fitted and held-out parts;
 * :mod:`railfem.diagnosis.evaluate` — the model at a record's geometry, cheaply;
+* :mod:`railfem.diagnosis.problem` — the effect model of the least-squares problem
+  (railfem.identify.problem);
 * :mod:`railfem.diagnosis.refit` — least squares with effects, scores, intervals;
 * :mod:`railfem.diagnosis.loop` — :func:`diagnose`.
 """

@@ -48,10 +48,9 @@ from railfem.diagnosis import residual as resid
 from railfem.diagnosis.data import DiagnosisData, prepare
 from railfem.diagnosis.evaluate import Evaluator
 from railfem.diagnosis.problem import BASE, Problem, noise_scale, table
-from railfem.diagnosis.refit import (REFINE_STEPS, Outcome,
-                                     interval_from_profile, parabola_step, profile_eta_r,
-                                     profile_inflation,
-                                     refit)
+from railfem.diagnosis.refit import (REFINE_STEPS, Outcome, interval_from_profile,
+                                     profile_eta_r, profile_inflation, refit)
+from railfem.identify.problem import SlowProfile
 from railfem.spec import TrackSpec, preset
 from railfem.standards import iec61260
 
@@ -131,7 +130,7 @@ def held_gate(ref: Outcome, cand: Outcome, pred_ref=None, pred_c=None) -> dict:
     pc = cand.problem.predict(cand.x) if pred_c is None else pred_c
     scale = ref.problem.scale
     d, a_all, b_all = [], [], []
-    for r in ref.problem.data.records:
+    for r in ref.problem.records:
         t = r.held
         if t is None:
             continue
@@ -203,38 +202,33 @@ def joint_profile(data, ev, spec_b, effect, start: Outcome, scale, gv) -> Outcom
     its profile and 95 % interval come from these costs."""
     (key,) = [(effect.name, n) for n in effect.grid]
     values = sorted(gv.get(key, effect.grid[key[1]]))
-    done = {}
 
-    def at(v):
-        v = float(v)
-        if v not in done:
-            near = min(done, key=lambda u: abs(u - v)) if done else None
-            x0 = (done[near] if near is not None else start).x
-            o = refit(data, ev, spec_b.replace(eta_r=(done[near] if near is not None else
-                                                      start).eta_r),
-                      (effect,), x0[:len(BASE)], scale, grid_values={key: (v,)},
-                      refine=False, x_start=x0)
-            done[v] = profile_eta_r(data, ev, spec_b, (effect,), o, scale, max_steps=6,
-                                    refine=True)  # a smooth profile for the steps below
-            log.info("diagnosis: %s %s = %.5g: cost %.3f at the best rail-loss kernel, "
-                     "%.3f interpolated", effect.name, key[1], v, done[v].cost,
-                     done[v].profile_cost)
-        return done[v]
+    def evaluate(v):
+        near = prof.nearest(v) if prof.points else start
+        o = refit(data, ev, spec_b.replace(eta_r=near.eta_r), (effect,), near.x[:len(BASE)],
+                  scale, grid_values={key: (v,)}, refine=False, x_start=near.x)
+        o = profile_eta_r(data, ev, spec_b, (effect,), o, scale, max_steps=6,
+                          refine=True)  # a smooth profile for the steps below
+        log.info("diagnosis: %s %s = %.5g: cost %.3f at the best rail-loss kernel, "
+                 "%.3f interpolated", effect.name, key[1], v, o.cost, o.profile_cost)
+        return o
 
     # a profile point's cost is its rail-loss profile's interpolated minimum: after
     # parabolic steps of 0.001 decades the best kernel's cost still sat up to ~1 cost unit
     # (s^2 ~ 1) above it in the blind study (the cost's curvature in log10 eta_r is ~3e6
     # on a 29-position test), a jitter of the order of the 95 % threshold (3.84 s^2)
-    def cost(u):
-        return done[u].profile_cost if done[u].profile_cost is not None else done[u].cost
+    def point_cost(o):
+        return o.profile_cost if o.profile_cost is not None else o.cost
 
+    prof = SlowProfile(evaluate, cost=point_cost)
     for v in values:
-        at(v)
-    for _ in range(REFINE_STEPS):
-        new = parabola_step({u: cost(u) for u in done}, 1e-4 * (values[-1] - values[0]))
-        if new is None:
-            break
-        at(new)
+        prof.at(v)
+    prof.refine(REFINE_STEPS, 1e-4 * (values[-1] - values[0]))
+    done = prof.points
+
+    def cost(u):
+        return point_cost(done[u])
+
     v = sorted(done)
     best = done[min(v, key=cost)]
     prof = {"values": [float(u) for u in v], "cost": [float(cost(u)) for u in v],

@@ -19,19 +19,20 @@ from __future__ import annotations
 import itertools
 import logging
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
-from scipy.optimize import least_squares
 
-from railfem.diagnosis.problem import BASE, Box, Problem
+from railfem.diagnosis.problem import BASE, Box, Problem, regrid
+from railfem.identify import problem as core
 from railfem.identify import uncertainty
+from railfem.identify.fit import CHI2_95
+from railfem.identify.problem import SlowProfile, parabola_step, parabola_vertex
 from railfem.params import Parameter
 
 log = logging.getLogger(__name__)
 
-CHI2_95 = 3.841
 REFINE_STEPS = 4  # parabolic steps of a numeric grid parameter (each a new kernel)
 ETA_R_LATTICE = 0.05  # decades between the rail-loss kernels of a profile
 MAX_GRID_START = 4  # effect parameters up to which starts are a 3-value grid
@@ -48,7 +49,7 @@ class Outcome:
     cost: float
     n: int
     k: int
-    problem: Problem
+    problem: core.Problem
     analysis: dict
     grid_profiles: dict
     eta_r_profile: dict | None = None
@@ -117,7 +118,7 @@ class Outcome:
 
     def _supports(self, eff: list[dict], t: float, t_joint: float) -> None:
         names = list(self.problem.box.names)
-        by_name = {e.name: e for e in self.problem.effects}
+        by_name = {e.name: e for e in self.problem.model.effects}
         n_vec = len(self.analysis["covariance_vector"])
         for p in eff:
             e, n = p["name"].split(".", 1)
@@ -136,22 +137,21 @@ class Outcome:
             p["support_ci95_joint"] = [10 ** (v - t_joint * sd), 10 ** (v + t_joint * sd)]
 
     def theta(self) -> dict:
-        return self.problem.thetas(self.x)
+        return self.problem.model.thetas(self.x)
 
     def spec(self):
-        return self.problem.base_spec(self.x)
+        return self.problem.model.base_spec(self.x)
 
 
-def _solve(problem: Problem, x0, max_nfev=200):
-    lo, hi = problem.box.lower, problem.box.upper
-    x0 = np.clip(np.asarray(x0, dtype=float), lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
-    res = least_squares(problem.residual, x0, bounds=(lo, hi), method="trf",
-                        jac=problem.jacobian if problem.analytic else "2-point",
-                        xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=max_nfev)
-    return res.x, float(2 * res.cost), res.jac
+def _solve(problem: core.Problem, x0, max_nfev=200):
+    """(x, cost, Jacobian): the refit's least squares, its Jacobian the closed-form
+    tangents where the effects give them."""
+    x, cost, res = problem.solve(x0, margin=1e-9, jacobian=problem.analytic, xtol=1e-10,
+                                 ftol=1e-10, gtol=1e-10, max_nfev=max_nfev)
+    return x, cost, res.jac
 
 
-def _starts(problem: Problem, x_base, n_keep: int):
+def _starts(problem: core.Problem, x_base, n_keep: int):
     """Start vectors: the base estimate with every combination of 3 values per effect
     parameter (20 %, its declared start, 80 % of its range in vector units), the best
     n_keep by cost; with more than MAX_GRID_START effect parameters the declared starts
@@ -160,12 +160,12 @@ def _starts(problem: Problem, x_base, n_keep: int):
     if not eff:
         return [np.asarray(x_base, dtype=float)]
     if len(eff) > MAX_GRID_START:  # many parameters (random effects): the declared starts
-        declared = [p.parameter().encode(p.start) for e in problem.effects
+        declared = [p.parameter().encode(p.start) for e in problem.model.effects
                     for p in e.continuous]
         return [np.concatenate([x_base, declared])]
     lo, hi = problem.box.lower[len(BASE):], problem.box.upper[len(BASE):]
     declared = []
-    for e in problem.effects:
+    for e in problem.model.effects:
         declared += [p.parameter().encode(p.start) for p in e.continuous]
     choices = [(lo[i] + 0.2 * (hi[i] - lo[i]), declared[i], lo[i] + 0.8 * (hi[i] - lo[i]))
                for i in range(len(eff))]
@@ -182,20 +182,18 @@ def _starts(problem: Problem, x_base, n_keep: int):
     return [x for _, x in cands[:n_keep]]
 
 
-def _solve_effect_only(problem: Problem, x0, max_nfev=60):
+def _solve_effect_only(problem: core.Problem, x0, max_nfev=60):
     """Least squares over the effect parameters only (the base held at x0)."""
     n = len(BASE)
     if len(x0) == n:
         r = problem.residual(x0)
         return np.asarray(x0, dtype=float), float(r @ r), None
-    lo, hi = problem.box.lower[n:], problem.box.upper[n:]
-    z0 = np.clip(np.asarray(x0[n:], dtype=float), lo + 1e-9 * (hi - lo), hi - 1e-9 * (hi - lo))
-    res = least_squares(lambda z: problem.residual(np.concatenate([x0[:n], z])), z0,
-                        bounds=(lo, hi), method="trf", max_nfev=max_nfev)
-    return np.concatenate([x0[:n], res.x]), float(2 * res.cost), None
+    free = np.arange(len(x0)) >= n
+    x, cost, _ = problem.solve(x0, free, margin=1e-9, max_nfev=max_nfev)
+    return x, cost, None
 
 
-def fit_fixed(problem: Problem, x_base, n_keep: int = 2):
+def fit_fixed(problem: core.Problem, x_base, n_keep: int = 2):
     """Best least-squares solution from the best start vectors: (x, cost, J)."""
     best = None
     for x0 in _starts(problem, x_base, n_keep):
@@ -307,7 +305,7 @@ def profile_inflation(o: Outcome, key, prof: dict) -> float:
     pb = o.problem
     vn = _nearest_other(prof["values"], o.grid[key])
     r = pb.residual(o.x)
-    r_nb = replace(pb, grid={**pb.grid, key: vn}).residual(o.x)
+    r_nb = regrid(pb, {**pb.model.grid, key: vn}).residual(o.x)
     return grid_inflation(_jacobian(pb, o.x), r, r_nb, vn - o.grid[key], pb.clusters())
 
 
@@ -340,23 +338,14 @@ def _profile_grid(keys, values, best, results, problem_for, x_base, refine_steps
 
         for _ in range(0 if is_int else refine_steps):
             pts = line()
-            k = int(np.argmin([c for _, c in pts]))
-            if not 0 < k < len(pts) - 1:
+            v = parabola_step(dict(pts), 1e-4 * (vals[-1] - vals[0]))
+            if v is None:
                 break
-            xs = np.array([v for v, _ in pts[k - 1:k + 2]], dtype=float)
-            cs = np.array([c for _, c in pts[k - 1:k + 2]])
-            A = np.vstack([xs ** 2, xs, np.ones(3)]).T
-            a, b, _ = np.linalg.solve(A, cs)
-            if a <= 0:
-                break
-            v = float(np.clip(-b / (2 * a), xs[0], xs[2]))
-            if min(abs(v - xs)) < 1e-4 * (vals[-1] - vals[0]):
-                break
+            v_best = pts[int(np.argmin([c for _, c in pts]))][0]
+            near = results[best[:j] + (v_best,) + best[j + 1:]][0]
             combo = best[:j] + (v,) + best[j + 1:]
-            near = results[best[:j] + (pts[k][0],) + best[j + 1:]][0]
             results[combo] = _solve(problem_for(combo), near)
-        pts = sorted((c[j], results[c][1]) for c in results
-                     if c[:j] == best[:j] and c[j + 1:] == best[j + 1:])
+        pts = line()
         new_best = min(pts, key=lambda t: t[1])[0]
         best = best[:j] + (new_best,) + best[j + 1:]
         profiles[key] = {"values": [float(v) for v, _ in pts],
@@ -409,32 +398,6 @@ def interval_from_profile(prof: dict, s2: float, threshold: float = CHI2_95) -> 
 
 
 
-def parabola_vertex(costs: dict) -> tuple[float, float] | None:
-    """(value, cost) at the vertex of the parabola through the best point of a 1-D profile
-    {value: cost} and its two neighbours, the value kept between them (the cost then that
-    of the parabola there, never above the best point's); None when the best point is at
-    an end or the parabola opens downwards."""
-    v = np.array(sorted(costs))
-    c = np.array([costs[x] for x in v])
-    k = int(np.argmin(c))
-    if not 0 < k < len(v) - 1:
-        return None
-    A = np.vstack([v[k - 1:k + 2] ** 2, v[k - 1:k + 2], np.ones(3)]).T
-    a, b, c0 = np.linalg.solve(A, c[k - 1:k + 2])
-    if a <= 0:
-        return None
-    x = float(np.clip(-b / (2 * a), v[k - 1], v[k + 1]))
-    return x, float(min(a * x * x + b * x + c0, c[k]))
-
-
-def parabola_step(costs: dict, tol: float) -> float | None:
-    """The next value of a 1-D profile {value: cost}: parabola_vertex's value; None when
-    there is none or it is within ``tol`` of a known value."""
-    vx = parabola_vertex(costs)
-    if vx is None:
-        return None
-    return None if min(abs(vx[0] - np.array(list(costs)))) < tol else vx[0]
-
 def profile_eta_r(data, evaluator, spec, effects, outcome: Outcome, scale, *,
                   max_steps: int | None = None, step: float = ETA_R_LATTICE,
                   refine: bool = True, tol: float = 0.001, bounds=None) -> Outcome:
@@ -445,14 +408,10 @@ def profile_eta_r(data, evaluator, spec, effects, outcome: Outcome, scale, *,
     ``tol`` decades. Returns the best Outcome with the eta_r profile and its 95 % interval
     (the Jacobian gets a finite-difference rail-loss column)."""
     grid = {k: (v,) for k, v in outcome.grid.items()}
-    done = {round(math.log10(outcome.eta_r), 6): outcome}
     max_steps = 8 if max_steps is None else max_steps
 
-    def at(le):
-        le = round(float(le), 6)
-        if le in done:
-            return done[le]
-        near = done[min(done, key=lambda v: abs(v - le))]
+    def evaluate(le):
+        near = prof.nearest(le)
         s_ = spec.replace(eta_r=10 ** le)
         # the unfitted scatter enters the best point's analysis (_joint_uncertainty)
         o = refit(data, evaluator, s_, effects, near.x[:len(BASE)], scale, grid_values=grid,
@@ -463,27 +422,18 @@ def profile_eta_r(data, evaluator, spec, effects, outcome: Outcome, scale, *,
                           unfitted=False)
             o = fresh if fresh.cost < o.cost else o
         o.grid_profiles = outcome.grid_profiles
-        done[le] = o
         return o
 
+    # the kernels lie on a lattice of log10(eta_r) rounded to 1e-6
+    prof = SlowProfile(evaluate, cost=lambda o: o.cost, key=lambda v: round(float(v), 6))
+    prof.points[prof.key(math.log10(outcome.eta_r))] = outcome
     e0 = math.log10(outcome.eta_r)
     if max_steps > 0:
-        at(e0 - step)
-        at(e0 + step)
-    for _ in range(max_steps):  # walk the lattice until the minimum is bracketed
-        v = sorted(done)
-        k = int(np.argmin([done[x].cost for x in v]))
-        if k == 0:
-            at(v[0] - step)
-        elif k == len(v) - 1:
-            at(v[-1] + step)
-        else:
-            break
-    for _ in range(max_steps if refine else 0):
-        new = parabola_step({x: done[x].cost for x in done}, tol)
-        if new is None:
-            break
-        at(new)
+        prof.at(e0 - step)
+        prof.at(e0 + step)
+    prof.walk(step, max_steps)  # until the minimum is bracketed
+    prof.refine(max_steps if refine else 0, tol)
+    done = prof.points
     v = np.array(sorted(done))
     c = np.array([done[x].cost for x in v])
     best = done[v[int(np.argmin(c))]]
@@ -530,7 +480,7 @@ def _joint_uncertainty(best: Outcome, done: dict) -> None:
                          eta_r=analysis["parameters"][-1])
 
 
-def _analyse(problem: Problem, box, v, J, r, clusters, unfitted: bool = True) -> dict:
+def _analyse(problem: core.Problem, box, v, J, r, clusters, unfitted: bool = True) -> dict:
     """uncertainty.analyse of ``problem`` at vector ``v`` (its x, possibly extended by
     columns of J beyond the problem's box): noise ``clusters`` as the data share it, and
     (``unfitted``) the scatter of the effects' unfitted support factors
@@ -541,13 +491,9 @@ def _analyse(problem: Problem, box, v, J, r, clusters, unfitted: bool = True) ->
     return out
 
 
-def _jacobian(problem: Problem, x, h: float = 1e-6) -> np.ndarray:
+def _jacobian(problem: core.Problem, x, h: float = 1e-6) -> np.ndarray:
+    """The Jacobian of an analysis: the closed-form tangents where the effects give them,
+    central differences otherwise."""
     if problem.analytic:
         return problem.jacobian(x)
-    lo, hi = problem.box.lower, problem.box.upper
-    cols = []
-    for i in range(len(x)):
-        a, b = x.copy(), x.copy()
-        a[i], b[i] = max(x[i] - h, lo[i]), min(x[i] + h, hi[i])
-        cols.append((problem.residual(b) - problem.residual(a)) / (b[i] - a[i]))
-    return np.column_stack(cols)
+    return problem.central_jacobian(x, h)

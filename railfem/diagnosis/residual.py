@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from railfem.diagnosis.problem import table
+from railfem.identify.problem import table
 
 ALPHA = 0.01
 NEGLIGIBLE_DB = 0.5  # structure below this RMS (dB) is not worth a mechanism
@@ -66,7 +66,7 @@ class Block:
 
 def blocks(record, part: str, prediction) -> list[Block]:
     """The residual blocks of one record's part ('fit' or 'held') for a model prediction
-    (railfem.diagnosis.problem.Prediction)."""
+    (railfem.identify.problem.Prediction)."""
     target = record.fit if part == "fit" else record.held
     if target is None:
         return []

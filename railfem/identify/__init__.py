@@ -5,6 +5,8 @@
   identifiability (railfem.identify.uncertainty);
 * :mod:`railfem.identify.data` — what is fitted (Target) and the residuals;
 * :mod:`railfem.identify.forward` — the model at the data's geometry, cheap to re-evaluate;
+* :mod:`railfem.identify.problem` — the least-squares problem (residuals, Jacobians, the
+  box, the kernel-parameter profile) of the fit and of the diagnosis;
 * :mod:`railfem.identify.spectral` — the uniform discrete coupling as a rational function
   of the support stiffness;
 * :func:`compare_models` (railfem.identify.compare) — the same data fitted with several

@@ -32,15 +32,15 @@ import logging
 import os
 import time
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 from scipy.stats import qmc
 
 from railfem.identify import data as fdata
 from railfem.identify import uncertainty
 from railfem.identify.forward import ForwardModel, Geometry, slow_names
+from railfem.identify.problem import Problem, SlowProfile
 from railfem.measurement import DecayRateMeasurement, HammerMeasurement
 from railfem.params import ParameterSpace
 from railfem.spec import TrackSpec, preset, spec_to_dict
@@ -59,44 +59,13 @@ CHI2_95 = 3.841  # chi-square(1) 95 % quantile: the profile-likelihood threshold
 SLOW_STEP = {"timoshenko": 1e-4, "wfe": 0.02}  # finite-difference step of a kernel parameter
 
 
-@dataclass
-class Problem:
-    """Target + forward model + residual scales: residual(x) is what least_squares sees."""
-
-    target: fdata.Target
-    forward: ForwardModel
-    scale: dict = field(default_factory=dict)
-
-    def groups(self, x) -> dict:
-        return fdata.residuals(self.target, self.forward.receptance(x))
-
-    def residual(self, x) -> np.ndarray:
-        g = self.groups(x)
-        return np.concatenate([g[q] / self.scale.get(q, 1.0) for q in self.target.use])
-
-    def cost(self, x) -> float:
-        r = self.residual(x)
-        return float(r @ r)
-
-
 def _solve(problem: Problem, x0, free, *, max_nfev=None):
-    """least_squares over the entries ``free`` of x (the others held at x0)."""
-    x0 = np.asarray(x0, dtype=float)
-    lo, hi = problem.forward.space.lower, problem.forward.space.upper
+    """least_squares over the entries ``free`` of x (the others held at x0):
+    (x, cost, number of evaluations)."""
     free = np.asarray(free, dtype=bool)
-
-    def fun(z):
-        x = x0.copy()
-        x[free] = z
-        return problem.residual(x)
-
-    z0 = np.clip(x0[free], lo[free], hi[free])
-    res = least_squares(fun, z0, bounds=(lo[free], hi[free]), method="trf", x_scale=1.0,
-                        xtol=1e-12, ftol=1e-12, gtol=1e-12,
-                        max_nfev=max_nfev or 100 * (int(free.sum()) + 1))
-    x = x0.copy()
-    x[free] = res.x
-    return x, float(2 * res.cost), int(res.nfev)
+    x, cost, res = problem.solve(x0, free, x_scale=1.0, xtol=1e-12, ftol=1e-12, gtol=1e-12,
+                                 max_nfev=max_nfev or 100 * (int(free.sum()) + 1))
+    return x, cost, int(res.nfev)
 
 
 # ------------------------------------------------------------------ parallel processes
@@ -319,7 +288,7 @@ def fit(data, model: str = "wfe-discrete", *, parameters=DEFAULT_PARAMETERS, bas
     seconds["starts"] = time.perf_counter() - t
 
     if reweight and len(target.use) > 1:
-        groups = problem.groups(x_hat)
+        groups = fdata.residuals(target, forward.receptance(x_hat))
         n_tot = sum(len(v) for v in groups.values())
         rms = {q: float(np.sqrt(np.sum(v ** 2) / max(len(v) * (1 - len(names) / n_tot), 1)))
                for q, v in groups.items()}
@@ -361,37 +330,39 @@ def fit(data, model: str = "wfe-discrete", *, parameters=DEFAULT_PARAMETERS, bas
 
 
 def jacobian(problem: Problem, x: np.ndarray, slow=(), beam: bool = True) -> np.ndarray:
-    """dr/dx at x: central differences (step 1e-6 in vector units) for the support
-    parameters; a forward difference of SLOW_STEP for a kernel parameter (each step is a
-    new kernel)."""
-    names = problem.forward.space.names
-    lo, hi = problem.forward.space.lower, problem.forward.space.upper
+    """dr/dx at x: central differences (step 1e-6 in vector units, Problem.central_jacobian)
+    for the support parameters; a forward difference of SLOW_STEP for a kernel parameter
+    (each step is a new kernel)."""
+    names = problem.box.names
     r0 = problem.residual(x)
     J = np.empty((len(r0), len(x)))
-    for i, n in enumerate(names):
-        h = (SLOW_STEP["timoshenko" if beam else "wfe"] if n in slow else 1e-6)
-        if n in slow:
-            sgn = 1.0 if x[i] + h <= hi[i] else -1.0
-            step = sgn * h
-            if not beam:  # reuse a built kernel node within 0.35 decades (one-sided)
-                near = [v for v in problem.forward.slow_values(i) if 0 < abs(v - x[i]) <= 0.35]
-                if near:
-                    step = min(near, key=lambda v: abs(v - x[i])) - x[i]
-            xp = x.copy()
-            xp[i] += step
-            J[:, i] = (problem.residual(xp) - r0) / step
-            continue
-        a, b = max(x[i] - h, lo[i]), min(x[i] + h, hi[i])
-        xa, xb = x.copy(), x.copy()
-        xa[i], xb[i] = a, b
-        J[:, i] = (problem.residual(xb) - problem.residual(xa)) / (b - a)
+    fast = [i for i, n in enumerate(names) if n not in slow]
+    if fast:
+        J[:, fast] = problem.central_jacobian(x, 1e-6, fast)
+    for i in (i for i, n in enumerate(names) if n in slow):
+        J[:, i] = _slow_column(problem, x, i, r0, beam)
     return J
 
 
+def _slow_column(problem: Problem, x, i, r0, beam: bool) -> np.ndarray:
+    """dr/dx_i of a kernel parameter: a forward difference of SLOW_STEP (backward on the
+    upper bound); a WFE fit steps to a built kernel node within 0.35 decades instead."""
+    h = SLOW_STEP["timoshenko" if beam else "wfe"]
+    step = h if x[i] + h <= problem.box.upper[i] else -h
+    if not beam:  # reuse a built kernel node within 0.35 decades (one-sided)
+        near = [v for v in problem.forward.slow_values(i) if 0 < abs(v - x[i]) <= 0.35]
+        if near:
+            step = min(near, key=lambda v: abs(v - x[i])) - x[i]
+    xp = x.copy()
+    xp[i] += step
+    return (problem.residual(xp) - r0) / step
+
+
 def _fit_with_slow(problem, starts, free, name, n_nodes, n_refine, tol, workers, x_base):
-    """Profile over the kernel parameter ``name``: multi-start at the middle node, warm
-    starts outward, then parabolic refinement of the profile minimum."""
-    space = problem.forward.space
+    """Profile over the kernel parameter ``name`` (SlowProfile): multi-start at the middle
+    node, warm starts outward, then parabolic refinement of the profile minimum (from the
+    points at the box's edge as well; a concave bracket steps to its better edge)."""
+    space = problem.box
     i = space.names.index(name)
     lo, hi = space.lower[i], space.upper[i]
     nodes = np.linspace(lo, hi, n_nodes + 2)[1:-1] if n_nodes > 1 else np.array([x_base[i]])
@@ -399,58 +370,32 @@ def _fit_with_slow(problem, starts, free, name, n_nodes, n_refine, tol, workers,
     mid = len(nodes) // 2
     order = [mid] + [k for d in range(1, len(nodes)) for k in (mid - d, mid + d)
                      if 0 <= k < len(nodes)]
-    done: dict = {}
-    runs = []
-    for k in order:
-        s = nodes[k]
-        if not done:
-            xs = np.array(starts)
-            xs[:, i] = s
-            runs = run_tasks(problem, _start, [(x0, free) for x0 in xs], workers,
-                             f"start ({name} = {space.parameters[i].decode(s):.4g})")
-            best = min(runs, key=lambda r: r["cost"])
-            done[s] = (best["cost"], np.array(best["x"]))
-            continue
-        near = min(done, key=lambda v: abs(v - s))
-        x0 = done[near][1].copy()
+
+    def evaluate(s):  # warm-started from the nearest refitted value
+        x0 = prof.nearest(s)[1].copy()
         x0[i] = s
         x, cost, _ = _solve(problem, x0, free)
-        done[s] = (cost, x)
-        log.info("fit: %s = %.4g: cost %.5g", name, space.parameters[i].decode(s), cost)
-    for _ in range(n_refine):
-        s_new = _parabola_step(done, lo, hi)
-        if s_new is None or min(abs(s_new - v) for v in done) < tol:
-            break
-        near = min(done, key=lambda v: abs(v - s_new))
-        x0 = done[near][1].copy()
-        x0[i] = s_new
-        x, cost, _ = _solve(problem, x0, free)
-        done[s_new] = (cost, x)
-        log.info("fit: refine %s = %.6g: cost %.6g", name, space.parameters[i].decode(s_new),
-                 cost)
+        log.info("fit: %s = %.6g: cost %.6g", name, space.parameters[i].decode(s), cost)
+        return cost, x
+
+    prof = SlowProfile(evaluate)
+    s = nodes[mid]
+    xs = np.array(starts)
+    xs[:, i] = s
+    runs = run_tasks(problem, _start, [(x0, free) for x0 in xs], workers,
+                     f"start ({name} = {space.parameters[i].decode(s):.4g})")
+    best = min(runs, key=lambda r: r["cost"])
+    prof.points[prof.key(s)] = (best["cost"], np.array(best["x"]))
+    for k in order[1:]:
+        prof.at(nodes[k])
+    prof.refine(n_refine, tol, at_edge=True, lo=lo, hi=hi)
+    done = prof.points
     s_best = min(done, key=lambda v: done[v][0])
     vals = sorted(done)
     profile_ = {"name": name, "vector": [float(v) for v in vals],
                 "value": [space.parameters[i].decode(v) for v in vals],
                 "cost": [done[v][0] for v in vals], "x": [done[v][1].tolist() for v in vals]}
     return done[s_best][1], runs, profile_
-
-
-def _parabola_step(done: dict, lo: float, hi: float):
-    """Vertex of the parabola through the best point and its two evaluated neighbours."""
-    s = np.array(sorted(done))
-    c = np.array([done[v][0] for v in s])
-    k = int(np.argmin(c))
-    if len(s) < 3:
-        return None
-    k = min(max(k, 1), len(s) - 2)
-    x3, y3 = s[k - 1:k + 2], c[k - 1:k + 2]
-    A = np.vstack([x3 ** 2, x3, np.ones(3)]).T
-    a, b, _ = np.linalg.solve(A, y3)
-    if a <= 0:  # not convex here: step to the better edge of the bracket
-        return float(x3[np.argmin(y3)])
-    v = -b / (2 * a)
-    return float(np.clip(v, max(lo, x3[0]), min(hi, x3[2])))
 
 
 def prebuild_nodes(problem, nodes, i, x_base, workers):
