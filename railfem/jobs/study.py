@@ -75,9 +75,9 @@ def run_passby_study(out_dir, *, model: str = "wfe-discrete", tracks=STUDY_TRACK
     out = prepare_output_dir(out_dir, COMMAND)
     f = ninth_octave_grid(f_low, f_high)
     t_w = time.perf_counter()
-    from ..wheelrail import wheels as W
+    from ..simulate.chain import make_wheel
 
-    flexible = W.flexible_wheel(f_max=float(f.max())).receptance(f)
+    flexible = make_wheel("flexible", f).receptance(f)
     specs = {t: preset(t, model=model) for t in tracks}
     warm_cache(specs[tracks[0]], f, cache)  # one kernel computation, shared by the workers
     t_warm = time.perf_counter() - t_w
