@@ -9,6 +9,7 @@ from scipy import integrate, optimize
 from railfem.track import beams as bm
 from railfem.track import supports as sp
 from railfem.materials import Material
+from railfem.spec import preset as spec_preset
 
 TWO_PI = 2 * np.pi
 
@@ -202,8 +203,8 @@ def test_static_winkler_limits():
 
 
 def test_euler_bernoulli_on_continuous_support_closed_form():
-    pr = sp.preset("medium")
-    eb = bm.BeamSection.catalogue(Material.steel(pr.eta_r)).euler_bernoulli()
+    pr = spec_preset("medium")
+    eb = bm.BeamSection.catalogue(Material.steel(pr.rail.eta)).euler_bernoulli()
     w = TWO_PI * np.array([10.0, 150.0, 400.0, 1500.0])
     x = np.array([0.0, 0.6, 2.4])
     got = bm.continuous_track_receptance(eb, pr.support, 0.6, w, x)
@@ -215,8 +216,8 @@ def test_euler_bernoulli_on_continuous_support_closed_form():
 
 @pytest.mark.parametrize("f", [0.0, 20.0, 300.0, 2000.0, 6000.0])
 def test_continuous_track_against_fourier_inversion(f):
-    pr = sp.preset("medium")
-    sec = bm.BeamSection.catalogue(Material.steel(pr.eta_r))
+    pr = spec_preset("medium")
+    sec = bm.BeamSection.catalogue(Material.steel(pr.rail.eta))
     w = TWO_PI * f
     s = complex(sp.continuous_stiffness(pr.support, w, 0.6))
     for x in (0.0, 0.3, 1.5):
@@ -254,7 +255,7 @@ def test_absent_and_rigid_supports(rail):
 
 
 def test_shapes(rail):
-    lay = sp.uniform_layout(sp.preset("medium").support, n=11)
+    lay = sp.uniform_layout(spec_preset("medium").support, n=11)
     w = TWO_PI * np.array([100.0, 200.0, 300.0])
     assert bm.discrete_track_receptance(rail, lay, w, 0.0, 0.0).shape == (3,)
     assert bm.discrete_track_receptance(rail, lay, w, 0.0, [0.0, 0.1]).shape == (3, 2)
@@ -264,7 +265,7 @@ def test_shapes(rail):
 
 
 def inhomogeneous_layout():
-    pr = sp.preset("site")
+    pr = spec_preset("site")
     lay = sp.uniform_layout(pr.support, n=41, pad_length=0.12, n_rows=3)
     lay = sp.with_support(lay, 21, dataclasses.replace(pr.support, kb=0.0))  # voided sleeper
     return sp.with_support(lay, 18, dataclasses.replace(pr.support, kp=900e6, eta_p=0.1))
@@ -281,14 +282,14 @@ def test_reciprocity_inhomogeneous_track(rail):
 def test_point_mobility_is_passive(rail):
     w = TWO_PI * np.geomspace(10, 5000, 60)
     x = np.array([0.0, 0.3, 0.6])  # voided support at x = 0.6 in the inhomogeneous layout
-    for lay in (inhomogeneous_layout(), sp.uniform_layout(sp.preset("soft").support, n=61)):
+    for lay in (inhomogeneous_layout(), sp.uniform_layout(spec_preset("soft").support, n=61)):
         a = np.stack([bm.discrete_track_receptance(rail, lay, w, xi, xi) for xi in x], -1)
         Y = bm.receptance_to_mobility(w, a)
         assert np.all(Y.real > 0)
 
 
 def test_voided_sleeper_softens_the_track(rail):
-    pr = sp.preset("site")
+    pr = spec_preset("site")
     lay = sp.uniform_layout(pr.support, n=41)
     void = sp.with_support(lay, 20, dataclasses.replace(pr.support, kb=0.0))
     w = TWO_PI * 20.0
@@ -297,7 +298,7 @@ def test_voided_sleeper_softens_the_track(rail):
 
 
 def test_pad_rows(rail):
-    p = sp.preset("medium").support
+    p = spec_preset("medium").support
     w = TWO_PI * np.array([100.0, 1000.0])
     x = np.array([0.0, 0.3])
     point = bm.discrete_track_receptance(rail, sp.uniform_layout(p, n=21), w, 0.0, x)
@@ -310,8 +311,8 @@ def test_pad_rows(rail):
 
 
 def test_small_spacing_tends_to_continuous_support():
-    pr = sp.preset("medium")
-    sec = bm.BeamSection.catalogue(Material.steel(pr.eta_r))
+    pr = spec_preset("medium")
+    sec = bm.BeamSection.catalogue(Material.steel(pr.rail.eta))
     w = TWO_PI * np.array([30.0, 100.0, 300.0])
     x = np.array([0.0, 0.5, 1.0])
     errors = []
@@ -364,8 +365,8 @@ def test_pinned_pinned_resonance_on_stiff_supports():
 
 @pytest.mark.parametrize("name", ["stiff", "medium", "soft", "site"])
 def test_truncation_131_vs_301_supports(name):
-    pr = sp.preset(name)
-    sec = bm.BeamSection.catalogue(Material.steel(pr.eta_r))
+    pr = spec_preset(name)
+    sec = bm.BeamSection.catalogue(Material.steel(pr.rail.eta))
     w = TWO_PI * np.geomspace(100, 5000, 40)
     x = [0.0, 0.3]  # on a support and at mid-span
     a131 = bm.discrete_track_receptance(sec, sp.uniform_layout(pr.support, n=131), w, x, x)
