@@ -227,7 +227,7 @@ def _check_channels(spec: TrackSpec, force: str, outputs) -> None:
     lateral = [c for c in (force, *outputs) if c in LATERAL]
     if not lateral:
         return
-    if spec.model.startswith("timoshenko"):
+    if spec.is_beam:
         raise ValueError(f"channel {lateral[0]!r} with model {spec.model!r}: the Timoshenko "
                          "models are vertical; use a WFE model for lateral channels")
     if "y" not in spec.support_directions:
@@ -257,17 +257,17 @@ def receptance(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE
     _check_channels(spec, force, outputs)
     _warn_validity(spec, f, fx, rx)
     store = kernelcache.resolve(cache)
-    model = spec.model
-    if model.endswith("discrete") and spec.uniform:
+    kind = spec.kind
+    if kind.is_discrete and spec.uniform:
         return _centred_on_pairs(spec, f, fx, rx, outputs, store, progress, force)
-    if model == "wfe-discrete":
+    if kind.is_discrete and kind.is_wfe:
         return _wfe_discrete(spec, f, fx, rx, outputs, store, progress, force=force)
-    if model == "timoshenko-discrete":
+    if kind.is_discrete:
         return _beam_discrete(spec, f, fx, rx, outputs, store)
-    if model == "wfe-periodic":
+    if kind.is_periodic:
         return _wfe_periodic(spec, f, fx, rx, outputs, store, progress, force)
     sep = rx[:, None] - fx[None, :]
-    if model == "timoshenko-continuous":
+    if kind.is_beam:
         a = beams.continuous_track_receptance(beam_section(spec.rail), spec.support,
                                               spec.spacing, 2 * np.pi * f, sep.ravel())
         return np.repeat(a.reshape(len(f), 1, *sep.shape), len(outputs), axis=1)
@@ -300,14 +300,14 @@ def _warn_validity(spec: TrackSpec, f, fx, rx) -> None:
     """Say when a request leaves what the model can stand for (results are still given):
     a beam above BEAM_VALIDITY_HZ, a WFE section mesh with too few elements per wavelength,
     a discrete track asked for points beyond its supported stretch."""
-    if spec.model.startswith("timoshenko") and f.max() > BEAM_VALIDITY_HZ:
+    if spec.is_beam and f.max() > BEAM_VALIDITY_HZ:
         warn_once(log, "%s up to %.4g Hz: a beam has no cross-section deformation; above "
                   "about %g Hz the rail's foot and web deform (foot flapping cuts on at ~5 kHz "
                   "on 60E1) and head and foot responses differ: use a wfe-* model there",
                   spec.model, f.max(), BEAM_VALIDITY_HZ)
-    if spec.model.startswith("wfe"):
+    if spec.is_wfe:
         waveguide.check_resolution(_rail_of(spec).guide, f.max())  # the model's own rail
-    if spec.model.endswith("discrete"):
+    if spec.kind.is_discrete:
         reach = (spec.n_supports - 1) / 2 * spec.spacing
         sep = np.abs(rx[:, None] - fx[None, :]).max()
         # uniform tracks are re-centred on each pair: each point is sep/2 from the centre
@@ -322,7 +322,7 @@ def _centred_on_pairs(spec, f, fx, rx, outputs, store, progress, force="head"):
     """Uniform discrete tracks: each pair (x_P, x_r) is computed as (x_P - c, x_r - c), c the
     support nearest to their midpoint; one solve serves every pair."""
     uf, ur, jr, jf = _centring(spec, fx, rx)
-    if spec.model == "timoshenko-discrete":
+    if spec.is_beam:
         a = _beam_discrete(spec, f, uf, ur, outputs, store)
     else:
         a = _wfe_discrete(spec, f, uf, ur, outputs, store, progress, force=force)
@@ -339,7 +339,7 @@ def discrete_kernel(spec: TrackSpec, frequency, force_x, response_x, *, outputs=
     (support_directions beyond 'z') K is (nf, n_sets, 3) per direction x, y, z
     (track.spring_stiffness)."""
     _check_channels(spec, force, tuple(outputs))
-    if spec.model not in ("wfe-discrete", "timoshenko-discrete") or not spec.uniform:
+    if not spec.kind.is_discrete or not spec.uniform:
         raise ValueError(f"discrete_kernel needs a uniform discrete model, got {spec.model!r}"
                          + ("" if spec.uniform else " with deviations"))
     f = _frequency(frequency)
@@ -347,7 +347,7 @@ def discrete_kernel(spec: TrackSpec, frequency, force_x, response_x, *, outputs=
     rx = np.atleast_1d(np.asarray(response_x, dtype=float))
     uf, ur, jr, jf = _centring(spec, fx, rx)
     store = kernelcache.resolve(cache)
-    if spec.model == "timoshenko-discrete":
+    if spec.is_beam:
         kernel = _beam_discrete(spec, f, uf, ur, tuple(outputs), store, couple=False)
     else:
         kernel = _wfe_discrete(spec, f, uf, ur, tuple(outputs), store, progress, couple=False,

@@ -106,7 +106,7 @@ class ParameterSpace:
                              f"of this space {names}")
         self.base = base
         self.parameters = tuple(_parameter(n, bounds or {}) for n in names)
-        if any(_DEVIATION.match(n) for n in names) and not base.model.endswith("discrete"):
+        if any(_DEVIATION.match(n) for n in names) and not base.kind.is_discrete:
             raise ValueError(f"per-support deviations need a discrete model, base is "
                              f"{base.model!r}")
         self.to_spec(self.from_spec(base))  # the base lies inside the bounds, indices exist

@@ -7,7 +7,8 @@ from a plain dict (``spec_to_dict`` / ``spec_from_dict``) with SI numbers, which
 as a string with a unit (``kp = "600 MN/m"``, ``pad_length = "150 mm"``). Unknown keys and
 unknown units are errors naming the key.
 
-Model kinds (MODELS): ``wfe-discrete`` (WFE rail on n_supports discrete supports, each may
+Model kinds (MODELS; MODEL_KINDS / ``TrackSpec.kind`` say what each is made of, a
+``ModelKind``): ``wfe-discrete`` (WFE rail on n_supports discrete supports, each may
 deviate), ``wfe-periodic`` (infinitely many identical supports, Floquet), ``wfe-continuous``
 (foundation spread along the rail), ``timoshenko-discrete`` and ``timoshenko-continuous``
 (the beam on the same supports).
@@ -23,8 +24,8 @@ from .track.supports import HORIZONTAL_FIELDS, PRESETS, SupportLayout, SupportPa
 from .track.supports import DIRECTIONS as SUPPORT_DIRECTIONS, RAIL_LOSS_FACTORS, preset_key
 from .track.supports import DEFAULT_SPACING, uniform_layout
 
-MODELS = ("wfe-discrete", "wfe-periodic", "wfe-continuous", "timoshenko-discrete",
-          "timoshenko-continuous")
+RAILS = ("wfe", "timoshenko")  # ModelKind.rail
+SUPPORT_KINDS = ("discrete", "periodic", "continuous")  # ModelKind.supports
 BEAM_CONSTANTS = ("mesh", "catalogue")
 H_RANGE = (0.5e-3, 0.1)  # m: finer hangs the eigen-solves, coarser cannot carry the section
 FOOT_RULES = ("midpoint", "nodes")  # railfem.track.footprints.RULES
@@ -37,6 +38,81 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True, kw_only=True)
+class ModelKind:
+    """What a model kind (TrackSpec.model) is made of: its rail and its supports.
+
+    name: the model's name, '<rail>-<supports>'. rail: 'wfe' (the waveguide finite element
+    section, railfem.track.wfe) or 'timoshenko' (the vertical beam, railfem.track.beams).
+    supports: 'discrete' (n_supports supports, each may deviate), 'periodic' (infinitely
+    many identical supports, Floquet) or 'continuous' (a foundation spread along the rail:
+    no pad geometry)."""
+
+    name: str
+    rail: str
+    supports: str
+
+    def __post_init__(self):
+        v.one_of("ModelKind.rail", self.rail, RAILS)
+        v.one_of("ModelKind.supports", self.supports, SUPPORT_KINDS)
+        if self.name != f"{self.rail}-{self.supports}":
+            raise ValueError(f"ModelKind.name = {self.name!r}: give "
+                             f"'{self.rail}-{self.supports}'")
+
+    @property
+    def is_wfe(self) -> bool:
+        """The rail is the WFE section (lateral channels, cross-section deformation)."""
+        return self.rail == "wfe"
+
+    @property
+    def is_beam(self) -> bool:
+        """The rail is the vertical Timoshenko beam."""
+        return self.rail == "timoshenko"
+
+    @property
+    def is_discrete(self) -> bool:
+        """A finite set of supports (spec.layout()), which may deviate one by one."""
+        return self.supports == "discrete"
+
+    @property
+    def is_periodic(self) -> bool:
+        """Infinitely many identical supports."""
+        return self.supports == "periodic"
+
+    @property
+    def is_continuous(self) -> bool:
+        """A foundation spread along the rail: no pad length or rows."""
+        return self.supports == "continuous"
+
+    @property
+    def continuous(self) -> "ModelKind":
+        """The same rail on a continuous foundation."""
+        return model_kind(f"{self.rail}-continuous")
+
+
+#: The model kinds by name (MODELS: their names, in this order).
+MODEL_KINDS = {k.name: k for k in (
+    ModelKind(name="wfe-discrete", rail="wfe", supports="discrete"),
+    ModelKind(name="wfe-periodic", rail="wfe", supports="periodic"),
+    ModelKind(name="wfe-continuous", rail="wfe", supports="continuous"),
+    ModelKind(name="timoshenko-discrete", rail="timoshenko", supports="discrete"),
+    ModelKind(name="timoshenko-continuous", rail="timoshenko", supports="continuous"),
+)}
+MODELS = tuple(MODEL_KINDS)
+
+
+def model_kind(name: str) -> ModelKind:
+    """The ModelKind of the model called ``name`` (one of MODELS)."""
+    v.one_of("model", name, MODELS)
+    return MODEL_KINDS[name]
+
+
+def _names_continuous(name) -> bool:
+    """``name`` is a model on a continuous foundation (False for anything not a model: the
+    TrackSpec it goes into reports that)."""
+    return isinstance(name, str) and name in MODEL_KINDS and MODEL_KINDS[name].is_continuous
+
+
+@dataclass(frozen=True, kw_only=True)
 class RailSpec:
     """The rail: section mesh and material.
 
@@ -45,7 +121,7 @@ class RailSpec:
     (.npz, railfem mesh) used instead of profile and h. E (Pa), nu (-), rho (kg/m^3): steel.
     eta: rail loss factor (-), E* = E (1 + i eta). beam_constants: where the Timoshenko
     models take A, I and kappa from: 'mesh' (railfem.rail.section on this mesh) or 'catalogue'
-    (nominal EN 13674-1 60E1, beams.BeamSection.uic60).
+    (nominal EN 13674-1 60E1, beams.BeamSection.catalogue).
     """
 
     profile: str = "60E1"
@@ -179,7 +255,7 @@ class TrackSpec:
                              "'zyx'")
         object.__setattr__(self, "support_directions",
                            "".join(d for d in SUPPORT_DIRECTIONS if d in dirs))
-        if len(self.support_directions) > 1 and self.model.startswith("timoshenko"):
+        if len(self.support_directions) > 1 and self.is_beam:
             raise ValueError(f"TrackSpec.support_directions = {dirs!r} with model "
                              f"{self.model!r}: the Timoshenko models are vertical beams; use "
                              "a WFE model (or beams.lateral_* for the lateral beam)")
@@ -194,7 +270,7 @@ class TrackSpec:
                 f"TrackSpec.pad_length = {self.pad_length!r} m is not shorter than the "
                 f"sleeper spacing {self.spacing!r} m: neighbouring pads would overlap; give "
                 "the pad length in m (typically 0.1-0.2)")
-        if self.pad_length > 0 and self.model.endswith("continuous"):
+        if self.pad_length > 0 and self.kind.is_continuous:
             raise ValueError(
                 f"TrackSpec.pad_length = {self.pad_length!r} m with model {self.model!r}: a "
                 "continuous support is already spread along the rail; use pad_length = 0 or "
@@ -207,7 +283,7 @@ class TrackSpec:
             raise ValueError(f"TrackSpec.n_rows = {self.n_rows} needs pad_length > 0 m (or "
                              "n_rows = 1 for point supports)")
         object.__setattr__(self, "deviations", tuple(self.deviations))
-        if self.deviations and not self.model.endswith("discrete"):
+        if self.deviations and not self.kind.is_discrete:
             raise ValueError(f"TrackSpec.deviations need a discrete model; {self.model!r} "
                              "has identical supports")
         half = (self.n_supports - 1) // 2
@@ -221,6 +297,21 @@ class TrackSpec:
                                  f"or outside the {self.n_supports} supports "
                                  f"({-half}..{self.n_supports - 1 - half})")
             seen.add(d.index)
+
+    @property
+    def kind(self) -> ModelKind:
+        """The model kind (MODEL_KINDS[model]): its rail and its supports."""
+        return MODEL_KINDS[self.model]
+
+    @property
+    def is_wfe(self) -> bool:
+        """The rail is the WFE section (model wfe-*)."""
+        return self.kind.is_wfe
+
+    @property
+    def is_beam(self) -> bool:
+        """The rail is the Timoshenko beam (model timoshenko-*)."""
+        return self.kind.is_beam
 
     @property
     def uniform(self) -> bool:
@@ -252,7 +343,7 @@ class TrackSpec:
             changes["rail"] = replace(changes.get("rail", self.rail), eta=changes.pop("eta_r"))
         if changes.get("pad_length", None) == 0 and "n_rows" not in changes:
             changes["n_rows"] = 1  # point supports have one row
-        if (str(changes.get("model", "")).endswith("continuous") and "pad_length" not in changes
+        if (_names_continuous(changes.get("model")) and "pad_length" not in changes
                 and self.pad_length > 0):
             # a continuous foundation spreads every support along the rail: a pad length
             # means nothing there, so switching model drops it (state it in a log line)
@@ -273,8 +364,8 @@ def preset(name: str, **changes) -> TrackSpec:
     gives the published point supports."""
     key = preset_key(name)
     model = changes.get("model", "wfe-discrete")
-    pad = {} if model.endswith("continuous") else {"pad_length": DEFAULT_PAD_LENGTH,
-                                                    "n_rows": DEFAULT_PAD_ROWS}
+    pad = {} if _names_continuous(model) else {"pad_length": DEFAULT_PAD_LENGTH,
+                                               "n_rows": DEFAULT_PAD_ROWS}
     if "pad_length" in changes:
         pad = {}
     spec = TrackSpec(name=key, support=PRESETS[key], spacing=DEFAULT_SPACING,

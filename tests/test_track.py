@@ -158,6 +158,35 @@ def test_beam_section_uses_mesh_constants(mesh):
     bs = models.beam_section(RailSpec())
     assert bs.area == pytest.approx(76.70e-4, rel=5e-3)
     assert bs.I == pytest.approx(3038.3e-8, rel=5e-3)
+    cat = models.beam_section(RailSpec(beam_constants="catalogue", E=2.0e11, eta=0.03))
+    assert (cat.area, cat.I, cat.kappa, cat.E, cat.eta) == (76.70e-4, 3038.3e-8, 0.4, 2.0e11,
+                                                            0.03)
+
+
+def test_model_kinds_say_what_each_model_is_made_of():
+    from railfem.spec import MODEL_KINDS, MODELS, ModelKind, model_kind
+
+    table = {"wfe-discrete": ("wfe", "discrete"), "wfe-periodic": ("wfe", "periodic"),
+             "wfe-continuous": ("wfe", "continuous"),
+             "timoshenko-discrete": ("timoshenko", "discrete"),
+             "timoshenko-continuous": ("timoshenko", "continuous")}
+    assert MODELS == tuple(table) and set(MODEL_KINDS) == set(table)
+    for name, (rail, sup) in table.items():
+        k = model_kind(name)
+        assert (k.name, k.rail, k.supports) == (name, rail, sup)
+        assert (k.is_wfe, k.is_beam) == (rail == "wfe", rail == "timoshenko")
+        assert (k.is_discrete, k.is_periodic, k.is_continuous) == (
+            sup == "discrete", sup == "periodic", sup == "continuous")
+        assert k.continuous.name == f"{rail}-continuous"
+    spec = preset("site", model="timoshenko-discrete")
+    assert spec.kind is MODEL_KINDS["timoshenko-discrete"] and spec.is_beam and not spec.is_wfe
+    assert preset("site").is_wfe and not preset("site").is_beam
+    with pytest.raises(ValueError, match="model = 'beam'"):
+        model_kind("beam")
+    with pytest.raises(ValueError, match="name"):
+        ModelKind(name="wfe-discrete", rail="timoshenko", supports="discrete")
+    with pytest.raises(ValueError, match="supports"):
+        ModelKind(name="wfe-floating", rail="wfe", supports="floating")
 
 
 def test_bad_inputs(rail):

@@ -25,7 +25,6 @@ from railfem.track.supports import SupportParameters, dynamic_stiffness
 
 log = logging.getLogger(__name__)
 
-UNIFORM = ("wfe-discrete", "timoshenko-discrete")
 MARGIN = 20.0  # m of supports beyond the outermost position of a track with deviations
 
 
@@ -69,7 +68,7 @@ class Evaluator:
 
     def receptance(self, spec, record, shift=(0.0, 0.0)) -> np.ndarray:
         shift = (float(shift[0]), float(shift[1]))
-        if spec.model in UNIFORM and spec.uniform:
+        if spec.kind.is_discrete and spec.uniform:
             if shift == (0.0, 0.0):
                 sc = self._plain(spec, record)
             else:
@@ -105,7 +104,7 @@ class Evaluator:
     def _woodbury(spec, shift) -> bool:
         """The Woodbury path serves a beam on point supports with deviations, unshifted,
         every deviating support keeping some stiffness (1/k enters the update)."""
-        return (spec.model == "timoshenko-discrete" and bool(spec.deviations)
+        return (spec.is_beam and spec.kind.is_discrete and bool(spec.deviations)
                 and tuple(map(float, shift)) == (0.0, 0.0) and spec.pad_length == 0
                 and all(min(d.kp, d.kb) > 0 for d in spec.deviations))
 

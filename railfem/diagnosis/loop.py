@@ -51,7 +51,7 @@ from railfem.diagnosis.problem import BASE, Problem, noise_scale, table
 from railfem.diagnosis.refit import (REFINE_STEPS, Outcome, interval_from_profile,
                                      profile_eta_r, profile_inflation, refit)
 from railfem.identify.problem import SlowProfile
-from railfem.spec import TrackSpec, preset
+from railfem.spec import TrackSpec, model_kind, preset
 from railfem.standards import iec61260
 
 log = logging.getLogger(__name__)
@@ -94,9 +94,9 @@ class Diagnosis:
 def applicable(effect, data: DiagnosisData, model: str):
     """(True, '') or (False, reason)."""
     for need in effect.needs:
-        if need == "discrete" and model.endswith("continuous"):
+        if need == "discrete" and model_kind(model).is_continuous:
             return False, f"needs discrete supports (model {model})"
-        if need == "deviations" and model.startswith("wfe"):
+        if need == "deviations" and model_kind(model).is_wfe:
             return False, ("a deviating support needs the full coupling solve of the WFE "
                            "track per evaluation (seconds, hundreds of them): diagnose with "
                            "timoshenko-discrete for this effect")
@@ -116,7 +116,7 @@ def grid_values(effect, data: DiagnosisData, model: str = "") -> dict:
     """Categorical grids restricted to what the data have (sensors); with a WFE model the
     pad-length grid is thinned to three values (each is a WFE kernel)."""
     out = {}
-    if effect.name == "pad_length" and model.startswith("wfe"):
+    if effect.name == "pad_length" and model and model_kind(model).is_wfe:
         out[(effect.name, "pad_length")] = WFE_PAD_LENGTHS
     if effect.name == "sensor_resonance":
         outs = sorted({o for r in data.records for o in r.fit.outputs})
@@ -272,7 +272,7 @@ class Search:
 
     @property
     def wfe(self) -> bool:
-        return self.model.startswith("wfe")
+        return model_kind(self.model).is_wfe
 
     @property
     def x_base(self) -> np.ndarray:
@@ -332,7 +332,7 @@ def fit_base(data: DiagnosisData, model: str, spec0: TrackSpec, ev: Evaluator, *
     if "transfer" in start_target.use:
         start_target = replace(start_target, use=tuple(q for q in start_target.use
                                                        if q != "transfer"))
-    beam = not model.startswith("wfe")
+    beam = model_kind(model).is_beam
     fr = identify_fit(start_target, model, parameters=BASE + ("eta_r",), base=spec0,
                       n_starts=n_starts, workers=workers, cache=cache, profiles=(), seed=seed,
                       slow_nodes=3 if beam else None, slow_refine=2 if beam else None)

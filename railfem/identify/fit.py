@@ -265,7 +265,7 @@ def fit(data, model: str = "wfe-discrete", *, parameters=DEFAULT_PARAMETERS, bas
     if len(slow) > 1:
         raise ValueError(f"fit at most one kernel parameter at a time, got {slow}; fix the "
                          "others in base")
-    beam = space.base.model.startswith("timoshenko")
+    beam = space.base.is_beam
     slow_nodes = slow_nodes or (7 if beam else 4)
     slow_refine = (8 if beam else 1) if slow_refine is None else slow_refine
     seconds = {}

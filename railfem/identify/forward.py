@@ -71,7 +71,7 @@ class Geometry:
 def slow_names(space: ParameterSpace) -> tuple[str, ...]:
     """The kernel parameters of ``space`` for its base model (none for the continuous
     Timoshenko model, whose every evaluation is a closed-form solve)."""
-    if space.base.model == "timoshenko-continuous":
+    if space.base.is_beam and space.base.kind.is_continuous:
         return ()
     return tuple(n for n in space.names if n in SLOW)
 
@@ -97,7 +97,7 @@ class SpectralEngine:
         g = self.geometry = geometry
         self.kernel_values = kernel_values(spec)
         self.omega = 2 * np.pi * g.frequency
-        self.beam = spec.model.startswith("timoshenko")
+        self.beam = spec.is_beam
         store = kernelcache.resolve(cache)
         canon = spec.replace(kp=1.0, eta_p=0.0, kb=1.0, eta_b=0.0, ms=1.0, name="fit")
         key = kernelcache.content_key("spectral-fit", __version__,
@@ -154,7 +154,7 @@ class ForwardModel:
         self.space, self.geometry, self.cache, self.progress = space, geometry, cache, progress
         model = space.base.model
         # the eigen form needs one support stiffness per frequency: vertical springs only
-        spectral_ok = (model in ("wfe-discrete", "timoshenko-discrete") and space.base.uniform
+        spectral_ok = (space.base.kind.is_discrete and space.base.uniform
                        and space.base.support_directions == "z" and geometry.force == "head")
         if engine == "auto":
             engine = "spectral" if spectral_ok else "direct"

@@ -140,7 +140,7 @@ def refined_point_mobility(spec: TrackSpec, f, point, marks: dict, hammer_x0: fl
 def _cut_ons(spec: TrackSpec, f) -> dict:
     """Free-rail cut-ons of the waves a vertical load excites, inside the computed range
     (the decay-rate plot names them: the decay rate spikes just above each)."""
-    if not spec.model.startswith("wfe"):
+    if not spec.is_wfe:
         return {}
     from ..rail.branches import cut_ons
     from ..rail.waveguide import assemble

@@ -33,6 +33,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..spec import MODEL_KINDS
 from ..standards import iec61260
 from .train import TrainLayout
 
@@ -44,10 +45,7 @@ __all__ = ["RailTables", "rail_tables", "table_receptance", "PassbyResult", "sim
 DEFAULT_STEP = 0.1  # m, METHOD.md section 5
 FORMS = ("exact", "paper")
 OUTPUTS = ("head", "foot")
-CONTINUOUS_OF = {"wfe-discrete": "wfe-continuous", "wfe-periodic": "wfe-continuous",
-                 "wfe-continuous": "wfe-continuous",
-                 "timoshenko-discrete": "timoshenko-continuous",
-                 "timoshenko-continuous": "timoshenko-continuous"}
+CONTINUOUS_OF = {name: kind.continuous.name for name, kind in MODEL_KINDS.items()}
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)

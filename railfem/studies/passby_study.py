@@ -262,7 +262,7 @@ def causes(spec, base, bands, ideal, train, hz, aw, ac, sensor_x, tdr, a_terms, 
     out["paper's form (A model, TDR hammer)"] = error(base, tdr["hammer"], a_terms["model"],
                                                       form="paper")
     cont = P.rail_tables(spec, f, continuous=True, cache=cfg["cache"])
-    cont_spec = spec.replace(model=P.CONTINUOUS_OF[spec.model])
+    cont_spec = spec.replace(model=spec.kind.continuous.name)
     terms_c = RM.a_terms_model(cont, bands, wheel_receptance=aw, contact_receptance=ac,
                                sensor_x=0.0)
     hammer_c = decay_rate(cont_spec, f, output="foot", cache=cfg["cache"]).decay_rate
