@@ -9,6 +9,12 @@
   (railfem.models.receptance), whose kernels are cached by content, so a deviation change
   costs the coupling solve. Deviating supports need positions well inside the supported
   stretch: n_supports is raised so that 20 m of supports lie beyond every position.
+
+It is the fit's forward model (railfem.identify.forward) with the diagnosis's options: the
+record's own geometry uses the fit's SpectralEngine (same kernels, same content keys),
+shifted geometries one checked eigen form (checked_coupling) over all of them, the door
+its door_receptance; the eigen form is summed as a batched product, and a beam with
+deviating supports gets a Woodbury update (Deviations) with closed-form derivatives.
 """
 from __future__ import annotations
 
@@ -19,8 +25,8 @@ from dataclasses import replace
 import numpy as np
 
 from railfem import models
-from railfem.identify.forward import SPECTRAL_TOLERANCE, Geometry, SpectralEngine
-from railfem.identify.spectral import SpectralCoupling, check, spectral_coupling
+from railfem.identify.forward import Geometry, SpectralEngine, checked_coupling, door_receptance
+from railfem.identify.spectral import SpectralCoupling
 from railfem.track.supports import SupportParameters, dynamic_stiffness
 
 log = logging.getLogger(__name__)
@@ -42,15 +48,6 @@ def shifted(record, shift) -> tuple[float, np.ndarray]:
     pos = np.asarray(t.positions, dtype=float) + np.where(np.arange(len(t.positions)) > 0,
                                                           dh, 0.0)
     return sx, sx + pos
-
-
-def eigen_receptance(sc: SpectralCoupling, Ks: np.ndarray) -> np.ndarray:
-    """SpectralCoupling.receptance as one batched matrix product (what it computes with
-    einsum, several times faster for the sizes of a hammer test)."""
-    Ks = np.asarray(Ks, dtype=complex)[:, None]
-    g = (Ks / (1.0 + Ks * sc.lam))[:, None, :]  # (nf, 1, m)
-    nf, m = sc.lam.shape
-    return sc.direct - (g @ sc.residue.reshape(nf, m, -1))[:, 0, :].reshape(sc.direct.shape)
 
 
 class Evaluator:
@@ -76,7 +73,8 @@ class Evaluator:
                 if shift not in shifts:  # an unregistered shift: a kernel of its own
                     shifts = [(0.0, 0.0), shift]
                 sc = self._bank(spec, record, tuple(shifts))[shift]
-            a = eigen_receptance(sc, dynamic_stiffness(spec.support, 2 * np.pi * sc.frequency))
+            a = sc.receptance(dynamic_stiffness(spec.support, 2 * np.pi * sc.frequency),
+                              batched=True)
             n_out = len(record.fit.outputs)
             return np.repeat(a, n_out, axis=1) if a.shape[1] != n_out else a
         t = record.fit
@@ -88,9 +86,7 @@ class Evaluator:
                                      / spec.spacing) + 1)
             if spec.n_supports < need:
                 spec = spec.replace(n_supports=need)
-        a = models.receptance(spec, t.frequency, fx, [sx], outputs=t.outputs,
-                              cache=self.cache)
-        return a[:, :, 0, :]
+        return door_receptance(spec, t.frequency, sx, fx, t.outputs, cache=self.cache)
 
     def tangents(self, spec, record, shift=(0.0, 0.0)):
         """(receptance, {(support index, 'kp' | 'kb'): d receptance / d ln factor}) of a
@@ -179,7 +175,6 @@ class Evaluator:
         kernel, jr, jf = models.discrete_kernel(canon, t.frequency, fx, rx,
                                                 outputs=t.outputs, cache=self.cache)
         self.n_kernels += 1
-        pattern = canon.layout().springs().weight
         pairs_r, pairs_f, sel = [], [], {}
         for s, (sx, f_) in zip(shifts, geo):
             r = int(np.searchsorted(rx, round(sx, 10)))
@@ -187,13 +182,8 @@ class Evaluator:
             sel[s] = np.arange(len(pairs_r), len(pairs_r) + len(c))
             pairs_r += [jr[r, ci] for ci in c]
             pairs_f += [jf[r, ci] for ci in c]
-        sc = spectral_coupling(kernel, pattern, np.array(pairs_r), np.array(pairs_f))
-        omega = 2 * np.pi * t.frequency
-        err = check(sc, kernel, pattern, np.array(pairs_r), np.array(pairs_f),
-                    dynamic_stiffness(canon.support, omega))
-        if err > SPECTRAL_TOLERANCE:
-            raise RuntimeError(f"the eigen form of the coupling differs from the direct "
-                               f"solve by {err:.1e} for {spec.model}")
+        sc = checked_coupling(kernel, canon, np.array(pairs_r), np.array(pairs_f),
+                              (canon.support,), t.frequency)
         bank = {s: SpectralCoupling(frequency=sc.frequency, lam=sc.lam,
                                     residue=sc.residue[..., idx], direct=sc.direct[..., idx])
                 for s, idx in sel.items()}

@@ -6,7 +6,8 @@
     result = fit(meas, model="wfe-discrete", use=("point", "transfer", "tdr"))
     result.parameters          # estimates, 95 % intervals, identifiable yes/no/weak + reason
 
-The problem: minimise sum_g sum_i (r_gi / s_g)^2 over the parameter vector x of a
+The problem (railfem.identify.problem.Problem, the one the diagnosis uses as well):
+minimise sum_g sum_i (r_gi / s_g)^2 over the parameter vector x of a
 railfem.params.ParameterSpace inside its box (scipy.optimize.least_squares, 'trf'), with
 r_g the residuals in dB of quantity g (railfem.identify.data) and s_g its residual scale:
 1 dB for the first pass, then each quantity's own residual RMS (so point mobility, transfers

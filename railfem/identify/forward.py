@@ -27,7 +27,7 @@ import numpy as np
 
 from railfem import __version__, models
 from railfem.track import kernelcache
-from railfem.identify.spectral import SpectralCoupling, spectral_coupling
+from railfem.identify.spectral import SpectralCoupling, check, spectral_coupling
 from railfem.params import ParameterSpace
 from railfem.spec import TrackSpec, spec_to_dict
 from railfem.track.supports import dynamic_stiffness
@@ -84,9 +84,8 @@ class DirectEngine:
 
     def receptance(self, spec: TrackSpec) -> np.ndarray:
         g = self.geometry
-        a = models.receptance(spec, g.frequency, g.force_x, [g.sensor_x], outputs=g.outputs,
-                              force=g.force, cache=self.cache)
-        return a[:, :, 0, :]
+        return door_receptance(spec, g.frequency, g.sensor_x, g.force_x, g.outputs,
+                               force=g.force, cache=self.cache)
 
 
 class SpectralEngine:
@@ -108,13 +107,9 @@ class SpectralEngine:
             kernel, jr, jf = models.discrete_kernel(spec, g.frequency, g.force_x,
                                                     [g.sensor_x], outputs=g.outputs,
                                                     cache=cache, progress=progress)
-            pattern = spec.layout().springs().weight
-            sc = spectral_coupling(kernel, pattern, jr[0], jf[0])
-            err = spectral_check(sc, kernel, pattern, jr[0], jf[0], spec, self.omega)
-            if err > SPECTRAL_TOLERANCE:
-                raise RuntimeError(f"the eigen form of the coupling differs from the direct "
-                                   f"solve by {err:.1e} (relative) for {spec.model}; the "
-                                   "support matrix is too close to defective here")
+            soft = replace(spec.support, kp=spec.support.kp / 10, kb=spec.support.kb / 10)
+            sc = checked_coupling(kernel, spec, jr[0], jf[0], (spec.support, soft),
+                                  g.frequency)
             return {"lam": sc.lam, "residue": sc.residue, "direct": sc.direct}
 
         arrays = store.cached(key, compute)
@@ -129,13 +124,30 @@ class SpectralEngine:
         return a
 
 
-def spectral_check(sc, kernel, pattern, jr, jf, spec, omega) -> float:
-    """The eigen form against couple_discrete at spec's own support and at a soft one."""
-    from railfem.identify.spectral import check
+def checked_coupling(kernel, spec: TrackSpec, jr, jf, supports, frequency) -> SpectralCoupling:
+    """The eigen form (railfem.identify.spectral) of the coupling of ``kernel`` (the
+    parameter-free kernel of spec's layout at ``frequency``, Hz) at the pairs (jr, jf),
+    checked against the direct solve at each support of ``supports``: a RuntimeError
+    beyond SPECTRAL_TOLERANCE."""
+    pattern = spec.layout().springs().weight
+    sc = spectral_coupling(kernel, pattern, jr, jf)
+    omega = 2 * np.pi * np.asarray(frequency, dtype=float)
+    err = max(check(sc, kernel, pattern, jr, jf, dynamic_stiffness(p, omega))
+              for p in supports)
+    if err > SPECTRAL_TOLERANCE:
+        raise RuntimeError(f"the eigen form of the coupling differs from the direct "
+                           f"solve by {err:.1e} (relative) for {spec.model}; the "
+                           "support matrix is too close to defective here")
+    return sc
 
-    soft = replace(spec.support, kp=spec.support.kp / 10, kb=spec.support.kb / 10)
-    return max(check(sc, kernel, pattern, jr, jf, dynamic_stiffness(p, omega))
-               for p in (spec.support, soft))
+
+def door_receptance(spec: TrackSpec, frequency, sensor_x: float, force_x, outputs, *,
+                    force: str = "head", cache=False) -> np.ndarray:
+    """(nf, n_out, n_force) receptance of any model through the door
+    (railfem.models.receptance) at one sensor position."""
+    a = models.receptance(spec, frequency, force_x, [sensor_x], outputs=outputs,
+                          force=force, cache=cache)
+    return a[:, :, 0, :]
 
 
 def kernel_values(spec: TrackSpec) -> tuple[float, float]:
