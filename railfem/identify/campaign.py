@@ -98,7 +98,7 @@ def fit_campaign(items, *, scheduler=None, base=None, workers=None, model="wfe-d
     first = items[0][1]
     space, target, forward = shared_forward(first, model=model, base=base,
                                             parameters=parameters, cache=cache)
-    beam = model.startswith("timoshenko")
+    beam = space.base.is_beam
     slow_nodes = slow_nodes or (5 if beam else 6)
     slow_refine = (3 if beam else 0) if slow_refine is None else slow_refine
     nw = workers or default_workers()
