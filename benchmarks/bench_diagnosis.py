@@ -4,7 +4,7 @@ cores).
     python benchmarks/bench_diagnosis.py                 # practice_site_b, both models
     python benchmarks/bench_diagnosis.py --models timoshenko-discrete
     python benchmarks/bench_diagnosis.py --f-high 4000 \
-        --out benchmarks/results/results_diagnosis_4k.txt        # where practice_site_b keeps an effect
+        --out benchmarks/results/results_diagnosis_4k.txt   # practice_site_b keeps an effect
 
 For each model: railfem.diagnosis.diagnose on the dataset (29 EN 15461 positions, head and
 foot sensors, 69 frequencies at 1/9 octave, 50 Hz - 8 kHz), the whole effect library that

@@ -1,7 +1,8 @@
 """Benchmark of the fit (railfem.identify): the 29-position refsim hammer dataset (head and
 foot, 69 frequencies; point + transfers + decay rate) and the SBB decay-rate table.
 
-    python benchmarks/bench_fit.py [--workers 2] [--skip-sbb] [--out benchmarks/results/results_fit.txt]
+    python benchmarks/bench_fit.py [--workers 2] [--skip-sbb]
+        [--out benchmarks/results/results_fit.txt]
 
 Rows (cold: kernels in memory only, nothing from the disk cache):
 * baseline: one evaluation of the door (railfem.models.receptance) at the dataset geometry,
@@ -30,7 +31,8 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--skip-sbb", action="store_true")
-    p.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "results" / "results_fit.txt")
+    p.add_argument("--out", type=Path,
+                   default=Path(__file__).resolve().parent / "results" / "results_fit.txt")
     args = p.parse_args(argv)
     limit_threads(1)
     import logging

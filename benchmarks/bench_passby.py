@@ -6,7 +6,8 @@ rigid wheels, on the WFE discrete site track; and the flexible-wheel mobility 0 
 Rows: the track kernel (rail tables: 6 force positions in a span x responses at 0.1 m over
 +-max_distance, head and foot, by railfem.simulate.passby.rail_tables), then the pass-by
 after it (exact form = the baseline; paper's form; no interaction; the time signal at
-25.6 kHz) and the flexible wheel (mesh, every harmonic with a mode below 15 kHz (n <= 20), receptance on
+25.6 kHz) and the flexible wheel (mesh, every harmonic with a mode below 15 kHz (n <= 20),
+receptance on
 a 1 Hz grid 1 Hz - 10 kHz). Time and the ratio to the baseline, measured in this run.
 """
 from __future__ import annotations
@@ -22,7 +23,8 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--threads", type=int, default=1, help="BLAS threads (default 1)")
     p.add_argument("--max-distance", type=float, default=30.0, help="rail tables reach (m)")
-    p.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "results" / "results_passby.txt")
+    p.add_argument("--out", type=Path,
+                   default=Path(__file__).resolve().parent / "results" / "results_passby.txt")
     args = p.parse_args(argv)
     limit_threads(args.threads)
     import numpy as np

@@ -1,6 +1,7 @@
 """Benchmark of the supported track through the model door (railfem.models).
 
-    python benchmarks/bench_track.py [--threads 1] [--no-job] [--out benchmarks/results/results_track.txt]
+    python benchmarks/bench_track.py [--threads 1] [--no-job]
+        [--out benchmarks/results/results_track.txt]
 
 Problem: the site track of METHOD.md Table 1, 60E1 h = 10 mm, the 69 frequencies of the
 1/9-octave grid 50 Hz - 8 kHz, the 29 EN 15461 hammer positions, head and foot sensor.
@@ -30,7 +31,8 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--threads", type=int, default=1, help="BLAS threads (default 1)")
     p.add_argument("--no-job", action="store_true", help="skip the two main-job runs")
-    p.add_argument("--out", type=Path, default=Path(__file__).resolve().parent / "results" / "results_track.txt")
+    p.add_argument("--out", type=Path,
+                   default=Path(__file__).resolve().parent / "results" / "results_track.txt")
     args = p.parse_args(argv)
     limit_threads(args.threads)
     sys.path.insert(0, str(ROOT))

@@ -6,7 +6,6 @@ between a vertical and a lateral load (both families active), the WFE rail on a 
 support against the lateral bending-torsion beam (railfem.track.beams.LateralSection) at low
 frequency, discrete vs periodic supports, and vertical results unchanged by the new
 horizontal fields when the supports act vertically only."""
-from dataclasses import replace
 
 import numpy as np
 import pytest

@@ -54,7 +54,8 @@ class ConvergenceStudy:
     reference: "richardson" or "finest", per quantity kind actually used.
     cut_on_reference: (nc,) reference values; cut_on_error: (ns, nc) relative errors;
     cut_on_rate: (nc,) observed orders (least-squares slope over all meshes);
-    cut_on_order: (nc,) Richardson order of the three finest meshes (NaN without one); likewise wavenumber_reference / _error / _rate
+    cut_on_order: (nc,) Richardson order of the three finest meshes (NaN without one);
+    likewise wavenumber_reference / _error / _rate
     with shapes (nf, nw), (ns, nf, nw), (nf, nw).
     """
 
@@ -260,10 +261,12 @@ def convergence_study(profile: RailProfile | str, sizes, *, frequencies=(), n_cu
     c_ref, c_err, c_rate, c_order, c_used = _errors_and_rates(h, cut_on, reference)
     k_ref, k_err, k_rate, _, k_used = _errors_and_rates(h, kk, reference)
     return ConvergenceStudy(
-        profile=prof.name, curved=curved, sizes=h, n_dofs=n_dofs, n_dofs_family=n_fam, cut_on=cut_on,
+        profile=prof.name, curved=curved, sizes=h, n_dofs=n_dofs, n_dofs_family=n_fam,
+        cut_on=cut_on,
         cut_on_family=cut_fam, cut_on_rank=cut_rank, frequencies=f, wavenumbers=kk,
         wave_family=wfam, wave_label=wlab, cut_on_reference=c_ref, cut_on_error=c_err,
-        cut_on_rate=c_rate, cut_on_order=c_order, wavenumber_reference=k_ref, wavenumber_error=k_err,
+        cut_on_rate=c_rate, cut_on_order=c_order, wavenumber_reference=k_ref,
+        wavenumber_error=k_err,
         wavenumber_rate=k_rate, reference={"cut_on": c_used, "wavenumbers": k_used})
 
 

@@ -325,7 +325,9 @@ def _reduction(wheel: AxisymmetricWheel, n: int) -> tuple[sp.csr_matrix, int | N
     if ring is not None:
         ring_col = len(keep)
         for d, s in ring:
-            rows.append(d); cols.append(ring_col); vals.append(s)
+            rows.append(d)
+            cols.append(ring_col)
+            vals.append(s)
     ncol = len(keep) + (ring is not None)
     return sp.csr_matrix((vals, (rows, cols)), shape=(ndof, ncol)), ring_col
 
