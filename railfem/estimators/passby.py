@@ -364,10 +364,11 @@ def _slope_estimate(slopes, contexts, opts: PassbyOptions) -> DecayEstimate:
 
     A mean less than ``opts.slope_min_se`` standard errors from zero is not a measured
     decay ('not_resolved'; the scatter of single-wheel slopes is large, and a looser
-    threshold accepts mostly the wheels' upward fluctuations); a mean that the incoherent-wheel model says this slope fit would
-    misread by more than ``max_slope_bias`` on any of the pass-bys ('model_bias') is not
-    reported either. ``slopes[r][b]``: per-wheel values; ``contexts[r][b]``: (positions,
-    step, L3, smear positions, smear weights) of recording r in band b.
+    threshold accepts mostly the wheels' upward fluctuations); a mean that the
+    incoherent-wheel model says this slope fit would misread by more than
+    ``max_slope_bias`` on any of the pass-bys ('model_bias') is not reported either.
+    ``slopes[r][b]``: per-wheel values; ``contexts[r][b]``: (positions, step, L3, smear
+    positions, smear weights) of recording r in band b.
     """
     nr, nb = len(slopes), len(slopes[0])
     value, raw, status, std_w, n_w, std_p, n_p = [], [], [], [], [], [], []

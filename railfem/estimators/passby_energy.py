@@ -34,8 +34,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["phi", "window_terms", "record_terms", "energy_ratio", "EnergyRoot", "solve_energy_ratio",
-           "coarse_kernel"]
+__all__ = ["phi", "window_terms", "record_terms", "energy_ratio", "EnergyRoot",
+           "solve_energy_ratio", "coarse_kernel"]
 
 DB_PER_NEPER_POWER = 20.0 / math.log(10.0)  # D = 8.686 β (β of the amplitude, 1/m)
 

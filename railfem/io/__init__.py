@@ -41,5 +41,6 @@ __all__ = [
     "write_decay_rate_table", "SBB_NIEDERWANGEN_COLUMNS", "read_frf_csv", "write_frf_csv",
     "FRFFileError", "MeasurementFileError", "MalformedFileError", "NonFiniteValueError",
     "FrequencyAxisError", "MissingPositionError", "UnknownQuantityError", "UnknownUnitError",
-    "read_roughness", "read_spectrum_csv", "write_spectrum_csv", "read_wheel_frf", "write_wheel_frf",
+    "read_roughness", "read_spectrum_csv", "write_spectrum_csv", "read_wheel_frf",
+    "write_wheel_frf",
 ]
