@@ -151,7 +151,11 @@ class Problem:
     def __init__(self, model=None, records=(), *, scale=None, rows=weighted_rows,
                  target=None, forward=None):
         if forward is not None:
+            if target is None or model is not None:
+                raise ValueError("Problem(target=..., forward=...) takes a target and no model")
             model, records = TargetModel(forward), (Record("data", target),)
+        if model is None:
+            raise ValueError("a Problem needs a model (or target= and forward=)")
         self.model, self.records = model, tuple(records)
         self.scale = {} if scale is None else scale
         self.rows = rows
