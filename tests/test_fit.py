@@ -161,6 +161,15 @@ def test_an_estimate_on_the_box_edge_gives_its_spec():
         space.to_spec(space.upper + 1e-9)
 
 
+def test_a_problem_without_a_model_is_named(forward):
+    from railfem.identify.problem import Problem
+
+    with pytest.raises(ValueError, match="needs a model"):
+        Problem()
+    with pytest.raises(ValueError, match="takes a target"):
+        Problem(forward=forward)
+
+
 def test_bad_input_is_named_before_computing(clean_hammer):
     Y, pos = clean_hammer
     with pytest.raises(ValueError, match="use"):
