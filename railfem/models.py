@@ -23,6 +23,11 @@ load excites both wave families and needs supports acting laterally
 Beam models have no cross-section and are vertical: head and foot responses both read the
 beam's deflection at x.
 
+Two rails (``TrackSpec.rails = 2``): identical rails on common sleepers split exactly into
+an in-phase and an anti-phase single-rail track (``TrackSpec.load_case``) with receptances
+Y_s and Y_a; a force on one rail gives (Y_s + Y_a) / 2 on that rail and (Y_s - Y_a) / 2 on
+the other. ``head(x, rail=2)`` is a point on rail 2 (default rail 1).
+
 Discrete models: a track without deviations is periodic, so each force-response pair is
 computed on the n_supports supports re-centred on the pair (the support nearest to their
 midpoint at the centre); with deviations the supports stay at x = n * spacing and
@@ -65,11 +70,13 @@ HEAD_SIDE_DEPTH = 0.014
 class Point:
     """A force or response point: ``where`` on the section ('head' or 'foot'), ``x`` along
     the rail (m) and the direction ('z' vertical; 'y' lateral, on the head only: the
-    channel 'head_lateral' on the side face of the head)."""
+    channel 'head_lateral' on the side face of the head). rail: 1 or 2, the rail of a
+    two-rail track (TrackSpec.rails = 2)."""
 
     where: str
     x: float
     direction: str = "z"
+    rail: int = 1
 
     def __post_init__(self):
         if self.where not in WHERE:
@@ -82,6 +89,8 @@ class Point:
         if self.direction == "y" and self.where != "head":
             raise ValueError(f"Point({self.where!r}, direction='y'): the lateral channel is on "
                              "the side of the head; use head(x, 'y')")
+        if isinstance(self.rail, bool) or self.rail not in (1, 2):
+            raise ValueError(f"Point.rail = {self.rail!r}: give 1 or 2")
 
     @property
     def channel(self) -> str:
@@ -90,17 +99,18 @@ class Point:
 
     @property
     def label(self) -> str:
-        return f"{self.where}_{self.direction}@x={self.x:.3f}"
+        rail = "" if self.rail == 1 else f"@rail{self.rail}"
+        return f"{self.where}_{self.direction}@x={self.x:.3f}{rail}"
 
 
-def head(x: float = 0.0, direction: str = "z") -> Point:
-    """A point on the rail head at x (m)."""
-    return Point("head", float(x), direction)
+def head(x: float = 0.0, direction: str = "z", rail: int = 1) -> Point:
+    """A point on the rail head at x (m), on ``rail`` (1 or 2)."""
+    return Point("head", float(x), direction, rail)
 
 
-def foot(x: float = 0.0, direction: str = "z") -> Point:
-    """The foot-top sensor at x (m)."""
-    return Point("foot", float(x), direction)
+def foot(x: float = 0.0, direction: str = "z", rail: int = 1) -> Point:
+    """The foot-top sensor at x (m), on ``rail`` (1 or 2)."""
+    return Point("foot", float(x), direction, rail)
 
 
 # ----------------------------------------------------------------------------- the rail
@@ -237,16 +247,23 @@ def _check_channels(spec: TrackSpec, force: str, outputs) -> None:
 
 
 def receptance(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE,
-               force: str = "head", cache=None, progress=None) -> np.ndarray:
+               force: str = "head", cache=None, progress=None, rail: int = 1) -> np.ndarray:
     """Receptance (nf, n_out, n_rx, n_fx) in m/N of the track ``spec``: unit force in the
     channel ``force`` ('head': vertical on the head top, default; 'head_lateral': lateral
     on the side of the head) at each force_x, response at each response_x (m) for each
     output in ``outputs`` ('head', 'foot', 'head_lateral'). The grid form behind ``frf``.
 
     cache: kernel cache (railfem.track.kernelcache.resolve: None = the default folder, a folder,
-    False = memory only, or a KernelStore)."""
+    False = memory only, or a KernelStore). rail: the response on the rail of the force (1)
+    or on the other rail (2) of a two-rail track (TrackSpec.rails = 2)."""
     if not isinstance(spec, TrackSpec):
         raise TypeError(f"spec must be a TrackSpec, got {type(spec).__name__}")
+    if rail not in (1, 2) or (rail == 2 and spec.rails == 1):
+        raise ValueError(f"rail = {rail!r}: give 1 (the force's rail) or 2 (the other rail, "
+                         "with TrackSpec.rails = 2)")
+    if spec.rails == 2:
+        return two_rail_receptance(spec, frequency, force_x, response_x, outputs=outputs,
+                                   force=force, cache=cache, progress=progress)[rail - 1]
     f = _frequency(frequency)
     fx = np.atleast_1d(np.asarray(force_x, dtype=float))
     rx = np.atleast_1d(np.asarray(response_x, dtype=float))
@@ -280,6 +297,15 @@ def receptance(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE
                                     n_waves=spec.numerics.n_waves, tail=spec.numerics.tail,
                                     directions=spec.support_directions, progress=progress)
     return r.receptance[:, :, inv.reshape(sep.shape), 0]
+
+
+def two_rail_receptance(spec: TrackSpec, frequency, force_x, response_x, **options):
+    """(same rail, other rail) receptances of the two-rail track ``spec`` (rails = 2), each
+    as ``receptance``: (Y_s + Y_a) / 2 and (Y_s - Y_a) / 2 from its in-phase and anti-phase
+    single-rail tracks (TrackSpec.load_case), which share one free-rail kernel."""
+    a_s, a_a = (receptance(spec.load_case(c), frequency, force_x, response_x, **options)
+                for c in ("symmetric", "antisymmetric"))
+    return (a_s + a_a) / 2, (a_s - a_a) / 2
 
 
 def _centring(spec, fx, rx):
@@ -339,6 +365,9 @@ def discrete_kernel(spec: TrackSpec, frequency, force_x, response_x, *, outputs=
     (support_directions beyond 'z') K is (nf, n_sets, 3) per direction x, y, z
     (track.spring_stiffness)."""
     _check_channels(spec, force, tuple(outputs))
+    if spec.rails == 2:
+        raise ValueError("discrete_kernel is a single-rail kernel: take each load case of a "
+                         "two-rail track, spec.load_case('symmetric' / 'antisymmetric')")
     if not spec.kind.is_discrete or not spec.uniform:
         raise ValueError(f"discrete_kernel needs a uniform discrete model, got {spec.model!r}"
                          + ("" if spec.uniform else " with deviations"))
@@ -451,13 +480,25 @@ def frf(spec: TrackSpec, frequency, *, force, response, quantity: str = "mobilit
         if not cols:
             continue
         fx, jf = np.unique([force[j].x for j in cols], return_inverse=True)
-        a = receptance(spec, f, fx, rx, outputs=outputs, force=channel, cache=cache,
-                       progress=progress)
-        values[:, :, cols] = a[:, jo[:, None], jr[:, None], jf[None, :]]
+        if spec.rails == 1 and any(p.rail != 1 for p in response + force):
+            raise ValueError("a point on rail 2 needs a two-rail track (TrackSpec.rails = 2)")
+        if spec.rails == 2:  # same rail / other rail, from the two load cases
+            a = two_rail_receptance(spec, f, fx, rx, outputs=outputs, force=channel,
+                                    cache=cache, progress=progress)
+        else:
+            a = (receptance(spec, f, fx, rx, outputs=outputs, force=channel, cache=cache,
+                            progress=progress),)
+        other = np.array([[int(p.rail != force[j].rail) for j in cols] for p in response])
+        values[:, :, cols] = _pick(np.stack(a), other, jo, jr, jf)
     out = FRF(frequency=f, values=values, quantity="receptance",
               response=tuple(p.label for p in response), force=tuple(p.label for p in force),
               response_x=[p.x for p in response], force_x=[p.x for p in force])
     return out.to(quantity)
+
+
+def _pick(a, other, jo, jr, jf):
+    """values[:, i, j] = a[other[i, j], :, jo[i], jr[i], jf[j]] (a: stacked receptances)."""
+    return a[other, :, jo[:, None], jr[:, None], jf[None, :]].transpose(2, 0, 1)
 
 
 def hammer_x(spec: TrackSpec, positions=None, offset: float = POINT_OFFSET,

@@ -23,6 +23,7 @@ from .materials import Material
 from .track.supports import HORIZONTAL_FIELDS, PRESETS, SupportLayout, SupportParameters
 from .track.supports import DIRECTIONS as SUPPORT_DIRECTIONS, RAIL_LOSS_FACTORS, preset_key
 from .track.supports import DEFAULT_SPACING, uniform_layout
+from .track.sleeper import CASES as LOAD_CASES, Sleeper, load_case
 
 RAILS = ("wfe", "timoshenko")  # ModelKind.rail
 SUPPORT_KINDS = ("discrete", "periodic", "continuous")  # ModelKind.supports
@@ -231,6 +232,12 @@ class TrackSpec:
     the published model, the default) or with 'y' (lateral pads, SupportParameters.kp_lat)
     and/or 'x' (longitudinal pads, kp_long), e.g. 'zyx'; lateral loads and responses need
     'y'. Written in the canonical order z, y, x.
+    rails: 1 (one rail, its supports loaded as if both rails moved in phase: the published
+    model) or 2 (two identical rails on the same sleepers, solved exactly as the sum of an
+    in-phase and an anti-phase single-rail problem; a Point's ``rail`` picks the rail;
+    vertical supports only). The sleeper (rigid or flexible) and a participating ballast
+    mass are options of the support (SupportParameters.sleeper, mb, kf, eta_f;
+    ``replace(sleeper='flexible')``).
     """
 
     name: str = "custom"
@@ -244,9 +251,12 @@ class TrackSpec:
     deviations: tuple[SupportDeviation, ...] = ()
     numerics: Numerics = field(default_factory=Numerics)
     support_directions: str = "z"
+    rails: int = 1
 
     def __post_init__(self):
         v.one_of("TrackSpec.model", self.model, MODELS)
+        if isinstance(self.rails, bool) or self.rails not in (1, 2):
+            raise ValueError(f"TrackSpec.rails = {self.rails!r}: give 1 or 2")
         dirs = self.support_directions
         if (not isinstance(dirs, str) or "z" not in dirs or len(set(dirs)) != len(dirs)
                 or not set(dirs) <= set(SUPPORT_DIRECTIONS)):
@@ -263,6 +273,13 @@ class TrackSpec:
             raise TypeError(f"TrackSpec.support must be SupportParameters, got "
                             f"{type(self.support).__name__}")
         v.track_support("TrackSpec.support", self.support)
+        if self.support.case != "symmetric" and self.rails == 2:
+            raise ValueError("TrackSpec.support.case must be 'symmetric' with rails = 2 (the "
+                             "door solves both load cases; TrackSpec.load_case)")
+        if self.rails == 2 and self.support_directions != "z":
+            raise ValueError(f"TrackSpec.rails = 2 with support_directions = "
+                             f"{self.support_directions!r}: the two-rail track is vertical; "
+                             "use support_directions = 'z'")
         v.positive("TrackSpec.spacing", self.spacing, "m", "the sleeper spacing, e.g. 0.6")
         v.non_negative("TrackSpec.pad_length", self.pad_length, "m", "0 for point supports")
         if self.pad_length >= self.spacing:
@@ -318,6 +335,14 @@ class TrackSpec:
         """True when every support is the same (no deviations)."""
         return not self.deviations
 
+    def load_case(self, case: str) -> "TrackSpec":
+        """The single-rail track of one load case of this two-rail track: 'symmetric'
+        (rails in phase) or 'antisymmetric' (anti-phase), its supports (and deviations) on
+        the sleeper in that case (railfem.track.sleeper)."""
+        v.one_of("case", case, LOAD_CASES)
+        sleeper, case = load_case(self.support.sleeper, case)
+        return replace(self, rails=1, support=replace(self.support, sleeper=sleeper, case=case))
+
     def layout(self) -> SupportLayout:
         """The discrete supports: n_supports at x = n * spacing around x = 0, deviations
         applied."""
@@ -336,7 +361,9 @@ class TrackSpec:
         eta_b and the horizontal ones (kp_lat, ..., supports.HORIZONTAL_FIELDS) in SI, and
         eta_r (the rail loss factor)."""
         sup = {k: changes.pop(k) for k in ("kp", "eta_p", "ms", "kb", "eta_b")
-               + HORIZONTAL_FIELDS if k in changes}
+               + HORIZONTAL_FIELDS + BALLAST_FIELDS if k in changes}
+        if "sleeper" in changes:
+            sup["sleeper"] = sleeper_option(changes.pop("sleeper"))
         if sup:
             changes["support"] = replace(changes.get("support", self.support), **sup)
         if "eta_r" in changes:
@@ -351,6 +378,24 @@ class TrackSpec:
                      "n_rows %d dropped", changes["model"], self.pad_length, self.n_rows)
             changes.update(pad_length=0.0, n_rows=1)
         return replace(self, **changes)
+
+
+#: The participating ballast mass of SupportParameters (TrackSpec.replace takes them too).
+BALLAST_FIELDS = ("mb", "kf", "eta_f")
+
+
+def sleeper_option(value) -> Sleeper | None:
+    """The support's sleeper from a TrackSpec.replace value: 'rigid' or None (the rigid
+    sleeper mass ms: the published model), 'flexible' (the default B90-type Timoshenko
+    sleeper, railfem.track.sleeper.B90) or a Sleeper."""
+    if value is None or value == "rigid":
+        return None
+    if value == "flexible":
+        return Sleeper()
+    if not isinstance(value, Sleeper):
+        raise ValueError(f"sleeper = {value!r}: give 'rigid', 'flexible' or a "
+                         "railfem.track.sleeper.Sleeper")
+    return value
 
 
 def preset(name: str, **changes) -> TrackSpec:
@@ -389,9 +434,13 @@ SCHEMA = {
     "support": {"kp": "stiffness", "eta_p": "number", "ms": "mass", "kb": "stiffness",
                 "eta_b": "number", "kp_lat": "stiffness", "eta_p_lat": "number",
                 "kp_long": "stiffness", "eta_p_long": "number", "kb_lat": "stiffness",
-                "eta_b_lat": "number", "ms_lat": "mass"},
+                "eta_b_lat": "number", "ms_lat": "mass", "mb": "mass", "kf": "stiffness",
+                "eta_f": "number"},
     "track": {"spacing": "length", "pad_length": "length", "n_rows": "int",
-              "n_supports": "int", "support_directions": "str"},
+              "n_supports": "int", "support_directions": "str", "rails": "int"},
+    "sleeper": {"model": "str", "length": "length", "seat_distance": "length",
+                "EI": "number", "kGA": "number", "mass_per_length": "number",
+                "rotary_inertia": "number", "eta": "number", "n_elements": "int"},
     "rail": {"profile": "str", "h": "length", "mesh_file": "str", "E": "pressure",
              "nu": "number", "rho": "density", "eta": "number", "beam_constants": "str"},
     "numerics": {"n_foot_springs": "int", "foot_rule": "str", "n_waves": "int", "tail": "bool",
@@ -465,6 +514,10 @@ def spec_from_dict(d: dict, base: TrackSpec | None = None) -> TrackSpec:
     trk = _section("track", d.get("track", {}), SCHEMA["track"])
     rail = _section("rail", d.get("rail", {}), SCHEMA["rail"])
     num = _section("numerics", d.get("numerics", {}), SCHEMA["numerics"])
+    slp = _section("sleeper", d.get("sleeper", {}), SCHEMA["sleeper"])
+    if slp:  # on top of the base's sleeper, or of the default flexible one
+        base_sleeper = spec.support.sleeper or Sleeper()
+        sup["sleeper"] = _named("sleeper", lambda: replace(base_sleeper, **slp))
     devs = d.get("deviations", None)
     changes = dict(top, **trk)
     for name, values, obj in (("support", sup, spec.support), ("rail", rail, spec.rail),
@@ -500,17 +553,17 @@ def spec_to_dict(spec: TrackSpec) -> dict:
         "support": support_to_dict(spec.support),
         "track": {"spacing": spec.spacing, "pad_length": spec.pad_length,
                   "n_rows": spec.n_rows, "n_supports": spec.n_supports,
-                  "support_directions": spec.support_directions},
+                  "support_directions": spec.support_directions, "rails": spec.rails},
         "rail": rail, "numerics": asdict(spec.numerics),
         "deviations": [asdict(d) for d in spec.deviations],
-    }
+    } | ({} if spec.support.sleeper is None else {"sleeper": asdict(spec.support.sleeper)})
 
 
 def support_to_dict(p: SupportParameters) -> dict:
     """The support's numbers (SI); the diagnosis hooks (pad_laws, absorber) only when set,
     as {'law': class name, field: value} tables (spec_from_dict does not read them back)."""
     out = {f.name: getattr(p, f.name) for f in fields(p)
-           if f.name not in ("pad_laws", "absorber")}
+           if f.name not in ("pad_laws", "absorber", "sleeper", "case")}
     if p.pad_laws:
         out["pad_laws"] = [{"law": type(law).__name__, **asdict(law)} for law in p.pad_laws]
     if p.absorber is not None:

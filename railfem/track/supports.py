@@ -20,6 +20,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .sleeper import CASES as LOAD_CASES, Sleeper, seat_stiffness
+
 log = logging.getLogger(__name__)
 
 DEFAULT_SPACING = 0.6  # m, sleeper spacing of METHOD.md Table 1
@@ -152,6 +154,16 @@ class SupportParameters:
         and its loss factor, used laterally and longitudinally; inf (default) = the sleeper
         does not move horizontally.
     ms_lat: sleeper mass per rail moving horizontally with the rail (kg).
+
+    Real track (railfem.track.sleeper; defaults: the published chain above).
+    mb: participating ballast mass per rail (kg) between the ballast spring kb* and the
+        subgrade spring kf* = kf (1 + i eta_f); 0 (default) = no ballast mass.
+    kf: subgrade stiffness per rail (N/m); inf (default) = rigid subgrade. eta_f: its loss
+        factor (-).
+    sleeper: a sleeper.Sleeper carrying both rails (flexible beam, or rigid with its
+        length and rail seats), or None (default): the rigid mass ms, rails in phase.
+    case: the load case of a two-rail track this support stands for, 'symmetric' (rails
+        in phase, the single-rail model; default) or 'antisymmetric' (needs a sleeper).
     """
 
     kp: float
@@ -168,8 +180,24 @@ class SupportParameters:
     kb_lat: float = math.inf
     eta_b_lat: float = 0.0
     ms_lat: float = DEFAULT_SLEEPER_MASS
+    mb: float = 0.0
+    kf: float = math.inf
+    eta_f: float = 0.0
+    sleeper: Sleeper | None = None
+    case: str = "symmetric"
 
     def __post_init__(self):
+        _check_stiffness("kf", self.kf)
+        _check_loss_factor("eta_f", self.eta_f)
+        if not np.isfinite(self.mb) or self.mb < 0:
+            raise ValueError(f"SupportParameters.mb = {self.mb!r} kg: give a finite ballast "
+                             "mass >= 0 kg per rail (0 = no participating ballast mass)")
+        if self.sleeper is not None and not isinstance(self.sleeper, Sleeper):
+            raise TypeError("SupportParameters.sleeper must be a railfem.track.sleeper."
+                            f"Sleeper or None, got {type(self.sleeper).__name__}")
+        if self.case not in LOAD_CASES or (self.case != "symmetric" and self.sleeper is None):
+            raise ValueError(f"SupportParameters.case = {self.case!r}: use 'symmetric', or "
+                             "'antisymmetric' with a sleeper (sleeper.load_case)")
         _check_stiffness("kp", self.kp)
         _check_stiffness("kb", self.kb)
         _check_loss_factor("eta_p", self.eta_p)
@@ -216,8 +244,12 @@ class SupportParameters:
         absorber = self.absorber
         if absorber is not None:  # the pad laws are relative to kp; the absorber's mass is not
             absorber = None if weight == 0 else replace(absorber, mass=absorber.mass * weight)
+        sleeper = self.sleeper  # a flexible sleeper's receptance / weight, as the chain's
+        if sleeper is not None and sleeper.model == "flexible" and weight > 0:
+            sleeper = sleeper.scaled(weight)
         return replace(self, kp=scale(self.kp), ms=scale(self.ms), kb=scale(self.kb),
-                       absorber=absorber,
+                       absorber=absorber, mb=scale(self.mb), kf=scale(self.kf),
+                       sleeper=sleeper,
                        **{n: scale(getattr(self, n)) for n in HORIZONTAL_SCALED})
 
 
@@ -285,16 +317,16 @@ def dynamic_stiffness(params: SupportParameters, omega) -> np.ndarray:
 
 
 def _chain_stiffness(params: SupportParameters, w: np.ndarray) -> np.ndarray:
-    kp, zb = params.kp_complex, params.kb_complex
+    kp = params.kp_complex
     if math.isinf(params.kp) and math.isinf(params.kb):
         return np.full(w.shape, complex(math.inf))
     if not math.isinf(params.kp):
         for law in params.pad_laws:  # frequency-dependent pad (hooks above), kp stays finite
             kp = law.stiffness(kp, w)
     kp = np.broadcast_to(np.asarray(kp, dtype=complex), w.shape)
-    if math.isinf(params.kb):
+    if math.isinf(params.kb) and math.isinf(params.kf):
         return np.array(kp, dtype=complex)
-    z = np.asarray(zb - w**2 * params.ms, dtype=complex)  # sleeper on ballast
+    z = seat_stiffness(params, w)  # sleeper on ballast: kb* - omega^2 ms by default
     if math.isinf(params.kp):
         return z
     num = np.asarray(kp * z)
