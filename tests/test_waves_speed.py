@@ -211,3 +211,58 @@ def test_real_arithmetic_tail_is_as_accurate_as_the_damped_one():
             worst["between"] = max(worst["between"], (np.abs(a - b) / np.abs(b)).max())
     assert worst["fast"] < 5e-4 and worst["damped"] < 5e-4, worst
     assert worst["between"] < 1e-6, worst
+
+
+@pytest.mark.parametrize("lengths", [(0.0, 0.0), (0.02, 0.0), (0.15, 0.15), (0.02, 0.01)])
+def test_residue_sum_equals_the_sum_over_every_wave_at_every_position(lengths):
+    """The staircase residue sum (each wave summed up to its reach) against the full
+    double sum of every wave's kernel (greens.wave_kernels) at every position."""
+    from railfem.rail import greens
+
+    rng = np.random.default_rng(1)
+    nw = 300
+    k = np.concatenate([rng.uniform(0.5, 20, 30) * (1 - 0.005j),
+                        rng.uniform(50, 600, nw - 30) * (0.3 - 1j)])
+    terms = [rng.standard_normal((3, nw)) + 1j * rng.standard_normal((3, nw)),
+             rng.standard_normal((nw, 2)), rng.standard_normal((3, nw)),
+             rng.standard_normal((nw, 2))]
+    x = np.concatenate([np.linspace(-80, 80, 161), [0.0, 0.005, -0.005, 0.01, 0.0101]])
+    fwd, bwd = greens.wave_kernels(k, x, *lengths)
+    full = -1j * np.einsum("on,ni,nx->oxi", terms[0], terms[1], fwd) \
+        - 1j * np.einsum("on,ni,nx->oxi", terms[2], terms[3], bwd)
+    got = greens.residue_sum(terms, k, x, *lengths)
+    assert np.abs(got - full).max() < 1e-13 * np.abs(full).max()
+
+
+def test_labels_of_all_waves_at_once_equal_the_per_wave_projection():
+    """label_shapes (all columns at once) against the mass-metric projection of each
+    shape on the rigid motions done one wave at a time, and solve(labels=False) gives the
+    same wavenumbers without labels."""
+    from railfem.rail import labels
+
+    g = rail(0.02, 0.01)
+    d = waves.solve(g, [300.0, 2000.0], n_waves=30)
+    bare = waves.solve(g, [300.0, 2000.0], n_waves=30, labels=False)
+    assert np.array_equal(d.k, bare.k, equal_nan=True)
+    assert set(bare.label.ravel()) == {""}
+    ops = waves.FamilyOperators(g, "symmetric")
+    w = waves.waves_at(ops, 2 * np.pi * 300.0, method="shift-invert", n_waves=30)
+    full = ops.T @ w.phi
+    M = g.M
+    y, z = g.nodes[:, 0], g.nodes[:, 1]
+    expected = []
+    for j in range(full.shape[1]):
+        u = full[:, j]
+        total = np.real(np.vdot(u, M @ u))
+        shares = {}
+        for name, comp in (("longitudinal", 0), ("vertical bending", 2)):
+            r = np.zeros(g.n_dofs)
+            r[g.node_dofs[:, comp]] = 1.0
+            shares[name] = abs(r @ (M @ u)) ** 2 / (r @ (M @ r)) / total
+        best = max(shares, key=shares.get)
+        expected.append(best if shares[best] >= labels.RIGID_SHARE else None)
+    got = labels.label_shapes(g, ops, w.phi)
+    for e, l in zip(expected, got):
+        if e is not None:  # a symmetric wave carried by a rigid motion: that motion
+            assert l == e
+    assert "vertical bending" in got and "longitudinal" in got

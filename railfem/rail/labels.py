@@ -31,42 +31,41 @@ def _node_ordered(guide, v_full: np.ndarray) -> np.ndarray:
 
 
 def label_shapes(guide, ops, phi_reduced: np.ndarray) -> list[str]:
-    """Label each column of reduced shapes phi (n_r, nw)."""
+    """Label each column of reduced shapes phi (n_r, nw): the mass-metric projections of
+    all columns on the rigid motions at once (one sparse product M phi)."""
     full = ops.T @ phi_reduced
     M = guide.M
     cz = float(np.sum(M.diagonal()[guide.node_dofs[:, 2]] * guide.nodes[:, 1])
                / M.diagonal()[guide.node_dofs[:, 2]].sum())
-    rigid = {}
-    for name, r in _rigid_basis(guide.nodes, cz).items():
-        g = np.zeros(guide.n_dofs)
-        g[guide.node_dofs.ravel()] = r
-        rigid[name] = g
+    names = ("longitudinal", "vertical bending", "lateral bending", "torsion")
+    basis = _rigid_basis(guide.nodes, cz)
+    R = np.zeros((guide.n_dofs, len(names)))
+    for j, name in enumerate(names):
+        R[guide.node_dofs.ravel(), j] = basis[name]
+    MR = M @ R
+    RMR = R.T @ MR  # (4, 4) real
+    Mu = M @ full
+    total = np.real(np.einsum("ij,ij->j", full.conj(), Mu))
+    RMu = MR.T @ full  # r^T M u (M symmetric)
+    share = np.zeros(full.shape[1])
+    best = np.full(full.shape[1], -1)
+    for j in (0, 1):  # longitudinal, vertical bending
+        s = np.abs(RMu[j] / RMR[j, j]) ** 2 * RMR[j, j] / total
+        better = s > share
+        best, share = np.where(better, j, best), np.where(better, s, share)
     # torsion and lateral translation are not M-orthogonal for a monosymmetric section:
     # project onto span{lateral, torsion} and attribute by the larger coefficient
-    Ml = {name: M @ g for name, g in rigid.items()}
-    labels = []
+    Gm = RMR[2:, 2:]
+    coef = np.linalg.solve(Gm, RMu[2:])
+    s2 = np.real(np.einsum("ij,ij->j", coef.conj(), Gm @ coef)) / total
+    better = s2 > share
+    pick = 2 + np.argmax(np.abs(coef) ** 2 * np.diag(Gm)[:, None], axis=0)
+    best, share = np.where(better, pick, best), np.where(better, s2, share)
     height = np.ptp(guide.nodes[:, 1])
     zmin = guide.nodes[:, 1].min()
-    for j in range(full.shape[1]):
-        u = full[:, j]
-        total = np.real(np.vdot(u, M @ u))
-        best, share = None, 0.0
-        for name in ("longitudinal", "vertical bending"):
-            c = np.vdot(rigid[name], M @ u) / np.vdot(rigid[name], Ml[name])
-            s = abs(c) ** 2 * np.real(np.vdot(rigid[name], Ml[name])) / total
-            if s > share:
-                best, share = name, s
-        G = np.column_stack([rigid["lateral bending"], rigid["torsion"]])
-        Gm = G.T @ M @ G
-        coef = np.linalg.solve(Gm, G.T @ (M @ u))
-        s2 = float(np.real(np.conj(coef) @ Gm @ coef) / total)
-        if s2 > share:
-            parts = np.abs(coef) ** 2 * np.diag(Gm)
-            best, share = ("lateral bending", "torsion")[int(np.argmax(parts))], s2
-        if share < RIGID_SHARE:
-            best = _cross_section_label(guide, ops.family, u, zmin, height)
-        labels.append(best)
-    return labels
+    return [names[b] if sh >= RIGID_SHARE else
+            _cross_section_label(guide, ops.family, full[:, j], zmin, height)
+            for j, (b, sh) in enumerate(zip(best, share))]
 
 
 def _cross_section_label(guide, family: str, u: np.ndarray, zmin: float, height: float) -> str:

@@ -418,9 +418,10 @@ class Dispersion:
 
 @blas_threads()
 def solve(guide: Waveguide, frequency, *, families=None, method: str = "shift-invert",
-          n_waves: int = 40, progress=None) -> Dispersion:
+          n_waves: int = 40, progress=None, labels: bool = True) -> Dispersion:
     """k(omega) of the requested families (default: all of the guide's) at each frequency
-    (Hz), with wave-type labels."""
+    (Hz), with wave-type labels (``labels=False``: empty labels, for callers that only
+    want the wavenumbers: it skips the shape projections of railfem.rail.labels)."""
     from .labels import label_waves
 
     f = np.atleast_1d(np.asarray(frequency, dtype=float))
@@ -434,7 +435,7 @@ def solve(guide: Waveguide, frequency, *, families=None, method: str = "shift-in
             w = waves_at(op, 2 * np.pi * fi, method=method, n_waves=n_waves)
             ks.append(w.k)
             fams += [op.family] * len(w.k)
-            labs += label_waves(guide, op, w)
+            labs += label_waves(guide, op, w) if labels else [""] * len(w.k)
         rows.append((np.concatenate(ks), np.array(fams), np.array(labs, dtype=object)))
         if progress:
             progress(i + 1, len(f))
