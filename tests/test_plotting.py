@@ -350,3 +350,195 @@ def test_plot_band_errors_returns_its_axes(tmp_path):
     assert ax is not None and ax.xaxis_inverted()
     assert [t.get_text() for t in ax.get_legend().get_texts()] == ["full", "simplified"]
     save_and_check(ax, tmp_path, "band_errors.png")
+
+
+# ------------------------------------------------------------- figures a user can read
+def text_boxes(ax):
+    """Window extents (pixels) of the texts on ``ax``, left to right, after a draw."""
+    ax.figure.canvas.draw()
+    return sorted((t.get_window_extent() for t in ax.texts if t.get_text().strip()),
+                  key=lambda b: b.x0)
+
+
+FREE_60E1_CUT_ONS = [("antisymmetric cross-section wave", 1298.0),  # 60E1, h = 10 mm
+                     ("antisymmetric cross-section wave", 3869.0),
+                     ("foot flapping (axial)", 5039.0), ("foot flapping", 5139.0),
+                     ("antisymmetric cross-section wave", 9429.0), ("foot flapping", 9726.0)]
+
+
+@pytest.mark.parametrize("high, cut_on, figsize", [
+    (5000.0, FREE_60E1_CUT_ONS[2:4], (6.4, 4.8)),   # the track job's pair
+    (10000.0, FREE_60E1_CUT_ONS[2:4] + [("web bending", 5500.0)], (6.4, 4.8)),
+    (10000.0, FREE_60E1_CUT_ONS, (6.4, 4.8)),       # every family of the free rail
+    (10000.0, FREE_60E1_CUT_ONS, (4.0, 3.0)),
+])
+def test_cut_on_texts_do_not_overlap(high, cut_on, figsize):
+    """Close cut-ons (5.04 and 5.14 kHz on 60E1) wrote their texts against each other or
+    over each other: each text now keeps clear of the others (a gap of at least a third of
+    its thickness) and every cut-on is named."""
+    import matplotlib.pyplot as plt
+
+    centres = 1000 * 2.0 ** (np.arange(-13, 11) / 3)
+    centres = centres[centres <= high * 1.01]
+    _, ax = plt.subplots(figsize=figsize, layout="constrained")
+    plotting.plot_decay_rate(centres, 10 / np.sqrt(centres), ["head"], cut_on=cut_on, ax=ax)
+    ax.set_title("a title")
+    boxes = text_boxes(ax)
+    thickness = min(b.width for b in boxes)
+    for a, b in zip(boxes, boxes[1:]):
+        assert not a.overlaps(b)
+        assert b.x0 - a.x1 >= thickness / 3, (a, b)
+    texts = " ".join(t.get_text() for t in ax.texts)
+    for name, f in cut_on:
+        assert f"{name} cut-on {f / 1000:.3g} kHz" in texts
+    assert len([ln for ln in ax.get_lines() if (ln.get_gid() or "").startswith("mark:")]) \
+        == len(cut_on)
+
+
+def test_track_job_names_the_foot_curve_a_transfer(tmp_path, monkeypatch):
+    """The point-mobility figure of `railfem track` called its foot curve 'point, foot
+    sensor'; the force is on the head, so it is a head-to-foot transfer."""
+    from railfem import preset
+    from railfem.jobs.track import JobSettings, run_track
+
+    seen = {}
+    save = plotting.save_figure
+
+    def capture(fig, path, **kw):
+        ax = fig if hasattr(fig, "get_legend") else fig.axes[0]
+        legend = ax.get_legend()
+        seen[path.name] = [t.get_text() for t in legend.get_texts()] if legend else []
+        return save(fig, path, **kw)
+
+    monkeypatch.setattr(plotting, "save_figure", capture)
+    run_track(preset("site", model="timoshenko-discrete"), tmp_path / "t",
+              job=JobSettings(f_low=100.0, f_high=160.0), cache=False)
+    legend = seen["point_mobility.png"]
+    assert legend == ["head force -> head response (point)",
+                      "head force -> foot response (transfer)"]
+    assert not any("point, foot" in t for texts in seen.values() for t in texts)
+
+
+def test_fit_of_a_table_row_names_the_row_in_its_titles(tmp_path, monkeypatch):
+    """tdr.png of a fitted decay-rate table row (SBB Niederwangen columns) said only
+    'Decay rate, <model> fit': the title now names the row, its section and date."""
+    import railfem as rf
+    from railfem import models
+    from railfem.jobs.fit import run_fit
+    from railfem.standards import iec61260
+
+    centres = iec61260.third_octave_bands(100, 5000).nominal
+    spec = rf.preset("site", model="timoshenko-continuous")
+    d = models.decay_rate(spec, iec61260.ninth_octave_grid(100, 5000), cache=False).decay_rate
+    table = tmp_path / "sbb.csv"
+    table.write_text("\n".join([
+        "loc,sec,messdatum,temp,rail,dir," + ",".join(f"{c:g}" for c in centres),
+        "Ni,B1,2012-09-12,10.6,li,v," + ",".join(f"{x:.3f}" for x in d),
+        "Ni,B3,2013-01-29,-0.7,re,v," + ",".join(f"{1.1 * x:.3f}" for x in d)]) + "\n")
+    titles = {}
+    save = plotting.save_figure
+
+    def capture(fig, path, **kw):
+        ax = fig if hasattr(fig, "get_title") else fig.axes[0]
+        titles[path.name] = ax.get_title()
+        return save(fig, path, **kw)
+
+    monkeypatch.setattr(plotting, "save_figure", capture)
+    run_fit(table, tmp_path / "out", model="timoshenko-continuous", row=1,
+            parameters=("kp", "kb"), n_starts=1, workers=1, profiles=())
+    title = titles["tdr.png"]
+    assert "row 1" in title and "B3" in title and "2013-01-29" in title
+    assert "B1" not in title and "2012-09-12" not in title
+
+
+def test_an_estimator_that_rejected_every_band_says_so():
+    """A 'slope fitting' legend entry used to stand for a curve with no point at all."""
+    centres = np.array([250.0, 315.0, 400.0, 500.0])
+    ax = plotting.plot_decay_rate_estimates(centres, {
+        "energy iteration": ([3.0, 2.5, 2.0, 1.5], [0.1, 0.1, 0.2, 0.2]),
+        "slope fitting": (np.full(4, np.nan), None)})
+    legend = [t.get_text() for t in ax.get_legend().get_texts()]
+    assert legend == ["energy iteration", "slope fitting: every band rejected"]
+    drawn = [ln for ln in ax.get_lines() if np.isfinite(np.asarray(ln.get_ydata(), float)).any()]
+    assert drawn and all(ln.get_color() == drawn[0].get_color() for ln in drawn)  # one estimator
+
+
+def test_candidate_scores_draw_the_held_out_gate():
+    ax = plotting.plot_candidate_scores(["pad_frequency", "noise_floor"], [-40.0, 3.0],
+                                        [0.35, 0.02], [True, False], gate=0.1)
+    (right,) = [a for a in ax.figure.axes if a is not ax]
+    (gate,) = [ln for ln in right.get_lines() if ln.get_gid() == "gate"]
+    assert np.allclose(gate.get_ydata(), 10.0)  # % on the right axis
+    legend = [t.get_text() for t in right.get_legend().get_texts()]
+    assert any("gate" in t and "10 %" in t for t in legend)
+
+
+def test_diagnose_job_draws_the_gate_of_its_rules(tmp_path, monkeypatch):
+    """candidates.png had no gate line: the job passes the diagnosis's MIN_GAIN."""
+    from types import SimpleNamespace
+
+    from railfem.diagnosis import loop
+    from railfem.jobs.diagnose import figures
+
+    class NoResidual:
+        def select(self, **kw):
+            return []
+
+        def band_table(self, bands):
+            return []
+
+    d = SimpleNamespace(
+        residual_before=NoResidual(), residual_after=None,
+        candidates=[{"name": "pad_frequency", "delta_bic": -40.0, "kept": True,
+                     "held_out": {"reduction": 0.35}},
+                    {"name": "noise_floor", "delta_bic": 3.0, "kept": False,
+                     "held_out": {"reduction": None}}],
+        data=SimpleNamespace(records=[SimpleNamespace(
+            fit=SimpleNamespace(frequency=np.array([100.0, 2000.0])))]))
+    drawn = {}
+    save = plotting.save_figure
+
+    def capture(fig, path, **kw):
+        drawn[path.name] = getattr(fig, "figure", fig)
+        return save(fig, path, close=False, **kw)
+
+    monkeypatch.setattr(plotting, "save_figure", capture)
+    figures(tmp_path, d)
+    gates = [ln for a in drawn["candidates.png"].axes for ln in a.get_lines()
+             if ln.get_gid() == "gate"]
+    assert len(gates) == 1 and np.allclose(gates[0].get_ydata(), 100 * loop.MIN_GAIN)
+
+
+@pytest.mark.parametrize("wavelength", [
+    np.geomspace(0.25, 0.025, 11),   # 25 - 2.5 cm without the limit curve
+    np.geomspace(0.1, 0.01, 11),
+])
+@pytest.mark.parametrize("limit", [True, False])
+def test_roughness_wavelength_axis_has_four_or_more_labels(wavelength, limit):
+    """roughness.png had two labelled wavelength ticks (1 and 10 cm) over 2.3 decades."""
+    ax = plotting.plot_roughness(wavelength, {"combined": np.linspace(5, -5, 11)},
+                                 limit=limit)
+    ax.figure.canvas.draw()
+    low, high = sorted(ax.get_xlim())
+    shown = [t.get_text() for t in ax.get_xticklabels() + ax.get_xticklabels(minor=True)
+             if t.get_text() and low <= t.get_position()[0] <= high]
+    assert len(shown) >= 4, shown
+    assert all(float(s) > 0 for s in shown)  # plain numbers (cm)
+
+
+@pytest.mark.parametrize("positions, scale, left", [
+    ([0.02, 0.3, 0.6, 1.2, 3.0, 7.2, 16.8], "log", None),
+    ([0.0, 0.3, 0.6, 1.2, 3.0, 7.2], "symlog", 0.0),
+    ([-1.2, -0.3, 0.02, 0.6, 3.0], "symlog", None),
+])
+def test_residual_distance_scale_fits_the_distances(positions, scale, left):
+    """residual_distance.png drew a symlog axis with an empty negative half."""
+    values = np.column_stack([np.linspace(-2, 2, len(positions))] * 2)
+    ax = plotting.plot_residual_distance(positions, values, ["250 Hz", "1k"])
+    assert ax.get_xscale() == scale
+    lo, hi = ax.get_xlim()
+    if left is not None:
+        assert lo == left
+    assert lo <= min(positions) and hi >= max(positions)
+    if min(positions) >= 0:
+        assert lo >= 0  # no empty negative half

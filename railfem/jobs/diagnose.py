@@ -370,7 +370,7 @@ def figures(out: Path, d) -> list[str]:
                                    [c["delta_bic"] for c in d.candidates],
                                    [c["held_out"].get("reduction") or 0.0
                                     for c in d.candidates],
-                                   [c["kept"] for c in d.candidates])
+                                   [c["kept"] for c in d.candidates], gate=loop.MIN_GAIN)
         ax.set_title("Candidates: BIC change and held-out error reduction")
         files.append(str(save_figure(ax, out / "candidates.png")))
     bands = _bands(d)

@@ -55,7 +55,7 @@ def run_fit(data, out_dir, *, model: str = "wfe-discrete", use=None,
         target_options = {"transfer_positions": transfer_positions, "f_range": f_range}
         res = fit(items[0], use=use or ("point", "transfer", "tdr"), base=base,
                   workers=workers, target_options=target_options, **opts)
-        record["files"] = write_fit(out, res)
+        record["files"] = write_fit(out, res, data_label=Path(str(data)).name)
         record["result"] = _short(res)
     elif not campaign:
         i, meas = items[0]
@@ -64,7 +64,7 @@ def run_fit(data, out_dir, *, model: str = "wfe-discrete", use=None,
         res = fit(meas, base=base, workers=workers, **opts)
         record["row"] = i
         record["metadata"] = meas.metadata.as_dict()
-        record["files"] = write_fit(out, res)
+        record["files"] = write_fit(out, res, data_label=row_label(i, meas.metadata))
         record["result"] = _short(res)
     else:
         rows = fit_campaign(items, scheduler=scheduler, base=base, workers=workers, **opts)
@@ -105,7 +105,7 @@ def write_campaign(out: Path, rows) -> list:
         md = m.metadata
         sub = out / f"row{i:03d}_{md.section or 'x'}_{md.date or 'x'}_{md.rail_side or 'x'}"
         sub.mkdir(exist_ok=True)
-        files = write_fit(sub, res)
+        files = write_fit(sub, res, data_label=row_label(i, md))
         cells = [str(i), md.section or "", md.date or "", md.rail_side or "",
                  "" if md.temperature_c is None else f"{md.temperature_c:g}"]
         for p in res.parameters:
@@ -123,9 +123,22 @@ def write_campaign(out: Path, rows) -> list:
 # ------------------------------------------------------------------ outputs
 
 
-def write_fit(out: Path, res) -> dict:
-    """fit.json and the plots of one fit into ``out``; returns the file paths."""
+def row_label(i, metadata) -> str:
+    """The row of a decay-rate table in words, for titles: 'row 3 (section B5, 2013-01-29,
+    rail re)'."""
+    md = metadata
+    what = [f"section {md.section}" if md.section else "", md.date or "",
+            f"rail {md.rail_side}" if md.rail_side else ""]
+    what = ", ".join(w for w in what if w)
+    return f"row {i} ({what})" if what else f"row {i}"
+
+
+def write_fit(out: Path, res, *, data_label: str = "") -> dict:
+    """fit.json and the plots of one fit into ``out``; returns the file paths.
+    ``data_label`` (the data set, or the table row: :func:`row_label`) ends the titles."""
     from .. import plotting
+
+    of = f"\n{data_label}" if data_label else ""  # a second title line
 
     files = {"fit_json": write_text_atomic(
         out / "fit.json", json.dumps(res.to_dict(), indent=2, default=_json) + "\n")}
@@ -138,7 +151,7 @@ def write_fit(out: Path, res) -> dict:
             axes = plotting.plot_magnitude_phase(
                 f, np.column_stack([t.point[:, o], q["point"][:, o]]),
                 [f"{s} measured", f"{s} fitted"], axes=axes)
-        axes[0].set_title(f"Point mobility, {res.model} fit")
+        axes[0].set_title(f"Point mobility, {res.model} fit{of}")
         files["point_png"] = plotting.save_figure(axes[0].figure, out / "point.png")
     if t.transfer is not None and "transfer" in t.use:
         ax = None
@@ -146,7 +159,7 @@ def write_fit(out: Path, res) -> dict:
             for o, s in enumerate(t.outputs[:1]):
                 ax = _transfer_lines(ax, f, t.transfer[:, o, j], q["transfer"][:, o, j],
                                      f"{s} x = {t.positions[k]:.2f} m")
-        ax.set_title(f"Transfer mobilities ({t.outputs[0]} sensor), {res.model} fit")
+        ax.set_title(f"Transfer mobilities ({t.outputs[0]} sensor), {res.model} fit{of}")
         files["transfer_png"] = plotting.save_figure(ax.figure, out / "transfer.png")
     if t.tdr is not None and "tdr" in t.use:
         ax = None
@@ -155,7 +168,7 @@ def write_fit(out: Path, res) -> dict:
                                             valid=np.isfinite(t.tdr[:, o]),
                                             labels=(f"{s} measured", f"{s} fitted"), ax=ax,
                                             logy=True)
-        ax.set_title(f"Decay rate, {res.model} fit")
+        ax.set_title(f"Decay rate, {res.model} fit{of}")
         files["tdr_png"] = plotting.save_figure(ax.figure, out / "tdr.png")
     cols, labels = [], []
     for quantity, table in res.residual_bands.items():
@@ -164,7 +177,7 @@ def write_fit(out: Path, res) -> dict:
             labels.append(f"{quantity} ({s})")
     ax = plotting.plot_band_residual(t.bands.nominal, np.array(cols).T, labels,
                                      ylabel="Residual RMS per band (dB)")
-    ax.set_title(f"Residual per band, {res.model} fit")
+    ax.set_title(f"Residual per band, {res.model} fit{of}")
     files["residual_png"] = plotting.save_figure(ax.figure, out / "residual.png")
     if res.profiles:
         files["profiles_png"] = _plot_profiles(out / "profiles.png", res)

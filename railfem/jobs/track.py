@@ -265,9 +265,10 @@ def _write_outputs(out, spec, f, pos, hammer_x, xs, transfer, along, span_fx, al
     paths["along_csv"] = write_text_atomic(out / "along_rail.csv", "\n".join(lines) + "\n")
 
     title = f"{spec.name} track, {spec.model}: vertical hammer, vertical response"
-    ax_mag, _ = plotting.plot_point_mobility(point[0], point[1],
-                                             [f"point, {o} sensor" for o in OUTPUTS],
-                                             marks=marks)
+    kinds = {"head": "point", "foot": "transfer"}  # the force is on the head
+    ax_mag, _ = plotting.plot_point_mobility(
+        point[0], point[1], [f"head force -> {o} response ({kinds[o]})" for o in OUTPUTS],
+        marks=marks, ylabel="Mobility (m/s/N)")
     ax_mag.set_title(title, fontsize="medium")
     paths["mobility_png"] = plotting.save_figure(ax_mag.figure, out / "point_mobility.png")
     ax = plotting.plot_decay_rate_results(results[:2], [f"{o} sensor" for o in OUTPUTS],

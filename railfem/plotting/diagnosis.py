@@ -59,7 +59,9 @@ def plot_residual_spectrum(frequency, values, labels=None, *, ax=None,
 def plot_residual_distance(positions, values, labels=None, *, ax=None,
                            ylabel: str = "Measured - model (dB)"):
     """Residual over hammer distance (values: (n_positions, n_curves), e.g. one curve per
-    one-third-octave band). Returns the Axes."""
+    one-third-octave band). The distance axis is logarithmic when every distance is
+    positive; symmetric-logarithmic (linear within 0.6 m of the sensor) when one is zero,
+    from 0, or negative. Returns the Axes."""
     x = vector(positions, "positions")
     v = columns(values, len(x), "values", "positions")
     ax = axes_or_new(ax)
@@ -68,7 +70,12 @@ def plot_residual_distance(positions, values, labels=None, *, ax=None,
         ax.plot(x[order], v[order, j], marker=MARKERS[j % len(MARKERS)], markersize=3,
                 label=lab)
     ax.axhline(0.0, color="0.4", lw=0.8)
-    ax.set_xscale("symlog", linthresh=0.6)
+    if x.min() > 0:
+        ax.set_xscale("log")
+    else:
+        ax.set_xscale("symlog", linthresh=0.6)
+        if x.min() == 0:  # no empty negative half
+            ax.set_xlim(left=0.0)
     ax.set_xlabel("Hammer distance from the sensor (m)")
     ax.set_ylabel(ylabel)
     ax.grid(True, which="both", alpha=0.3)
@@ -98,10 +105,13 @@ def plot_error_before_after(centres, before, after, *, ax=None, label: str = "",
     return ax
 
 
-def plot_candidate_scores(names, delta_bic, held_reduction, kept=None, *, ax=None):
+def plot_candidate_scores(names, delta_bic, held_reduction, kept=None, *, gate=None,
+                          ax=None):
     """Candidates of a diagnosis: BIC change against the base (bars, left axis, clipped
     symlog) and held-out error reduction in % (markers, right axis); kept candidates
-    hatched. Returns the (left) Axes."""
+    hatched. ``gate``: the least held-out reduction a candidate must reach (a fraction, e.g.
+    railfem.diagnosis.loop.MIN_GAIN), drawn as a labelled dashed line on the right axis.
+    Returns the (left) Axes."""
     n = len(names)
     d = vector(delta_bic, "delta_bic")
     r = vector(held_reduction, "held_reduction")
@@ -120,7 +130,11 @@ def plot_candidate_scores(names, delta_bic, held_reduction, kept=None, *, ax=Non
     ax.set_xticks(i)
     ax.set_xticklabels(list(names), rotation=60, ha="right", fontsize=8)
     ax2 = ax.twinx()
-    ax2.plot(i, 100 * r, "o", color="tab:red")
+    ax2.plot(i, 100 * r, "o", color="tab:red", label="held-out error reduction")
     ax2.set_ylabel("Held-out error reduction (%)", color="tab:red")
     ax2.axhline(0.0, color="tab:red", lw=0.5, ls=":")
+    if gate is not None:
+        ax2.axhline(100 * float(gate), color="tab:red", lw=1.0, ls="--", gid="gate",
+                    label=f"held-out gate: at least {100 * float(gate):g} % reduction")
+        ax2.legend(fontsize="small", loc="upper right")
     return ax

@@ -45,13 +45,15 @@ def plot_magnitude_phase(frequency, values, labels=None, *,
 
 
 def mark_frequencies(ax, marks, *, color="0.3", text_y: float = 0.97, fmt=None,
-                     merge_ratio: float = 1.06):
+                     merge_ratio: float | None = None):
     """Vertical lines at named frequencies with their names written along them.
 
     marks : dict name -> frequency (Hz), or a sequence of (name, frequency) pairs when names
     repeat (non-finite values and values outside the x range are skipped with a log
     message). The text reads '<name> <frequency>' unless ``fmt`` (name, frequency -> str)
-    says otherwise; marks closer than ``merge_ratio`` share one text, joined by '; '.
+    says otherwise. A text goes left of its line, or right of it when the left is taken;
+    marks too close for either share one text, a line each, left to right (as do marks
+    closer than ``merge_ratio``, when given), so no two texts overlap.
     ``text_y`` (axes fraction) is where the text starts: near the top (the default) it
     hangs down, below 0.5 it rises. Returns the list of lines drawn.
     """
@@ -67,26 +69,58 @@ def mark_frequencies(ax, marks, *, color="0.3", text_y: float = 0.97, fmt=None,
             continue
         kept.append((f, str(name)))
     kept.sort()
-    lines, groups = [], []
+    lines = []
     for f, name in kept:
         line = ax.axvline(f, color=color, linestyle=":", linewidth=1.0, zorder=1)
         line.set_gid(f"mark:{name}")
         lines.append(line)
-        if groups and f <= groups[-1][-1][0] * merge_ratio:
-            groups[-1].append((f, name))
-        else:
-            groups.append([(f, name)])
-    for group in groups:
-        texts = [t for t in (fmt(name, f) for f, name in group) if t]
-        if len(texts) == 2:  # two close marks: one name each side of the lines
-            sides = [(group[0][0], texts[0], "right"), (group[-1][0], texts[1], "left")]
-        else:
-            sides = [(group[0][0], "; ".join(texts), "right")] if texts else []
-        for f, text, ha in sides:
-            ax.text(f, text_y, f" {text} ", transform=ax.get_xaxis_transform(), rotation=90,
-                    ha=ha, va="top" if text_y > 0.5 else "bottom", fontsize="x-small",
-                    color=color)
+    for f, texts, ha in _mark_text_layout(ax, [(f, fmt(name, f)) for f, name in kept],
+                                          merge_ratio):
+        rising = text_y <= 0.5  # the lines start together at text_y
+        ax.text(f, text_y, "\n".join(f" {t} " for t in texts),
+                transform=ax.get_xaxis_transform(), rotation=90, ha=ha,
+                va="bottom" if rising else "top", multialignment="left" if rising else "right",
+                fontsize="x-small", color=color)
     return lines
+
+
+#: Across the axis, in font sizes: the thickness of a vertical one-line text, the step per
+#: further line and the least gap between two texts; all times _SHRINK, a margin for the
+#: layout changing the width of the axes (a constrained layout mostly widens them).
+_TEXT_THICKNESS, _LINE_STEP, _TEXT_GAP, _SHRINK = 1.1, 1.2, 0.5, 1.1
+
+
+def _mark_text_layout(ax, marks, merge_ratio=None):
+    """Where the texts of ``marks`` ((frequency, text)) go, so that no two texts overlap:
+    a list of (frequency of the line, lines of text, 'right' | 'left'). A text stands left
+    of its line, or right of the last line of its group when the left is taken; marks with
+    no room for either share one text, a line each (and marks closer than ``merge_ratio``)."""
+    from matplotlib.font_manager import FontProperties
+
+    size = FontProperties(size="x-small").get_size_in_points()
+    fig = ax.figure
+    width = ax.get_position().width * fig.get_figwidth() * 72.0  # axes width, points
+    unit = _SHRINK * size / max(width, 1.0)  # one font size, as an axes fraction
+    to_axes = ax.transAxes.inverted()
+    at = sorted((float(to_axes.transform(ax.transData.transform((f, 0.0)))[0]), f, text)
+                for f, text in marks if text)
+    groups = []  # [marks, ha, end of the text (axes fraction)]
+    for mark in at:
+        group = [mark]
+        while True:
+            end = groups[-1][2] if groups else -np.inf
+            close = (merge_ratio is not None and groups
+                     and group[0][1] <= groups[-1][0][-1][1] * merge_ratio)
+            thick = unit * (_TEXT_THICKNESS + _LINE_STEP * (len(group) - 1))
+            if not close and group[0][0] - thick - unit * _TEXT_GAP >= end:
+                groups.append([group, "right", group[0][0]])  # ends at its first line
+                break
+            if not close and group[-1][0] - unit * _TEXT_GAP >= end:
+                groups.append([group, "left", group[-1][0] + thick])  # from its last line
+                break
+            group = groups.pop()[0] + group
+    return [(g[0][1] if ha == "right" else g[-1][1], [m[2] for m in g], ha)
+            for g, ha, _ in groups]
 
 
 def _hz_text(f: float) -> str:

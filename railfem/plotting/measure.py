@@ -31,7 +31,8 @@ def plot_band_overlay(centres, measured, model=None, *, valid=None,
     ok = (np.ones(meas.shape, bool) if valid is None
           else columns(valid, centres.size, "valid", "centres", dtype=bool))
     if ok.shape != meas.shape:
-        raise ValueError(f"valid has shape {ok.shape}, measured {meas.shape}; give one flag per value")
+        raise ValueError(f"valid has shape {ok.shape}, measured {meas.shape}; give one flag "
+                         "per value")
     mod = None if model is None else columns(model, centres.size, "model", "centres")
     names = list(labels) if not isinstance(labels, str) else [labels, None]
     ax = axes_or_new(ax)
@@ -76,7 +77,9 @@ def plot_decay_rate_estimates(centres, estimates: dict, *, ax=None,
     """Decay rates per one-third-octave band from several estimators, with error bars.
 
     ``estimates`` maps a label to ``(values, errors)``, each (nb,) in dB/m (errors may be
-    None); NaN values (failed bands) leave gaps. Log value axis, nominal band labels.
+    None); NaN values (failed bands) leave gaps. An estimator without a value in any band
+    draws nothing: its legend entry reads '<label>: every band rejected'. Log value axis,
+    nominal band labels.
     """
     centres = vector(centres, "centres")
     if np.any(centres <= 0):
@@ -88,6 +91,10 @@ def plot_decay_rate_estimates(centres, estimates: dict, *, ax=None,
         e = None if errors is None else np.nan_to_num(
             columns(errors, centres.size, f"errors of {label!r}", "centres")[:, 0])
         shift = 2.0 ** ((j - (n - 1) / 2) / 24)  # side by side within the band
+        if not np.any(v > 0):  # a note in the legend, no symbol: there is nothing to show
+            ax.errorbar([], [], linestyle="none", marker="none",
+                        label=f"{label}: every band rejected")
+            continue
         ax.errorbar(centres * shift, np.where(v > 0, v, np.nan), yerr=e,
                     marker=MARKERS[j % len(MARKERS)], markersize=4, capsize=2,
                     label=str(label))
@@ -125,12 +132,37 @@ def plot_roughness(wavelength, levels: dict, *, ax=None, limit: bool = True,
     ax.set_xscale("log")
     if not ax.xaxis_inverted():
         ax.invert_xaxis()
-    plain_log_labels(ax.xaxis)
+    _wavelength_ticks(ax.xaxis)
     ax.set_xlabel("Wavelength (cm)")
     ax.set_ylabel("Roughness level (dB re 1 um)")
     ax.grid(True, which="both", alpha=0.3)
     legend(ax)
     return ax
+
+
+def _wavelength_ticks(axis) -> None:
+    """Labelled ticks at 1, 2 and 5 times the powers of ten ('%g': 0.5, 1, 2, 5, 10, ...) on
+    a log wavelength axis (1, 2, 3, 5, 7 on less than 1.5 decades, decades alone on more
+    than 4): four or more over the range, where decade ticks alone give two on the two
+    decades of roughness wavelengths. Unlabelled minor ticks between."""
+    from matplotlib.ticker import FuncFormatter, Locator, LogLocator, NullFormatter
+
+    class WavelengthLocator(Locator):
+        def __call__(self):
+            low, high = sorted(self.axis.get_view_interval())
+            if not low > 0:
+                return []
+            decades = np.log10(high / low)
+            subs = (1.0,) if decades > 4 else (1.0, 2.0, 5.0) if decades > 1.5 else (
+                1.0, 2.0, 3.0, 5.0, 7.0)
+            powers = 10.0 ** np.arange(np.floor(np.log10(low)), np.ceil(np.log10(high)) + 1)
+            ticks = np.sort(np.outer(powers, subs).ravel())
+            return ticks[(ticks >= low * (1 - 1e-9)) & (ticks <= high * (1 + 1e-9))]
+
+    axis.set_major_locator(WavelengthLocator())
+    axis.set_major_formatter(FuncFormatter(lambda value, pos=None: f"{value:g}"))
+    axis.set_minor_locator(LogLocator(base=10.0, subs=np.arange(2.0, 10.0), numticks=30))
+    axis.set_minor_formatter(NullFormatter())
 
 
 def plot_band_errors(x, errors: dict, *, ax=None, xlabel: str = "Wavelength (cm)",
@@ -150,7 +182,7 @@ def plot_band_errors(x, errors: dict, *, ax=None, xlabel: str = "Wavelength (cm)
     ax.set_xscale("log")
     if invert and not ax.xaxis_inverted():
         ax.invert_xaxis()
-    plain_log_labels(ax.xaxis)
+    _wavelength_ticks(ax.xaxis)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.grid(True, which="both", alpha=0.3)
