@@ -435,20 +435,46 @@ def test_fit_of_a_table_row_names_the_row_in_its_titles(tmp_path, monkeypatch):
         "loc,sec,messdatum,temp,rail,dir," + ",".join(f"{c:g}" for c in centres),
         "Ni,B1,2012-09-12,10.6,li,v," + ",".join(f"{x:.3f}" for x in d),
         "Ni,B3,2013-01-29,-0.7,re,v," + ",".join(f"{1.1 * x:.3f}" for x in d)]) + "\n")
-    titles = {}
+    titles, profile_axes = {}, []
     save = plotting.save_figure
 
     def capture(fig, path, **kw):
         ax = fig if hasattr(fig, "get_title") else fig.axes[0]
         titles[path.name] = ax.get_title()
-        return save(fig, path, **kw)
+        if path.name == "profiles.png":
+            profile_axes.extend(ax.figure.axes)
+        return save(fig, path, close=False, **kw)
 
     monkeypatch.setattr(plotting, "save_figure", capture)
     run_fit(table, tmp_path / "out", model="timoshenko-continuous", row=1,
-            parameters=("kp", "kb"), n_starts=1, workers=1, profiles=())
+            parameters=("kp", "kb"), n_starts=1, workers=1, profiles=("kp",))
     title = titles["tdr.png"]
     assert "row 1" in title and "B3" in title and "2013-01-29" in title
     assert "B1" not in title and "2012-09-12" not in title
+    # the profile figure, drawn by railfem.plotting now
+    from railfem.identify.fit import CHI2_95
+
+    (ax,) = profile_axes
+    assert ax.get_xlabel() == "kp (N/m)" and ax.get_xscale() == "log"
+    assert [t.get_text() for t in ax.get_legend().get_texts()] == ["95 % threshold"]
+    assert any(np.allclose(ln.get_ydata(), CHI2_95) for ln in ax.get_lines())
+
+
+def test_plot_transfer_fit_pairs_share_a_colour(tmp_path):
+    f = np.geomspace(100, 2000, 30)
+    y = 1e-4 / (1 + 1j * f / 500)
+    ax = plotting.plot_transfer_fit(f, y, 1.1 * y, "head x = 1.20 m")
+    ax = plotting.plot_transfer_fit(f, 0.5 * y, 0.6 * y, "head x = 2.40 m", ax=ax)
+    lines = ax.get_lines()
+    assert [ln.get_label() for ln in lines] == [
+        "head x = 1.20 m measured", "head x = 1.20 m fitted",
+        "head x = 2.40 m measured", "head x = 2.40 m fitted"]
+    assert lines[0].get_color() == lines[1].get_color() != lines[2].get_color()
+    assert ax.get_xscale() == ax.get_yscale() == "log"
+    assert np.allclose(lines[3].get_ydata(), 0.6 * np.abs(y))
+    save_and_check(ax, tmp_path, "transfer.png")
+    with pytest.raises(ValueError, match="one value per frequency"):
+        plotting.plot_transfer_fit(f, y[:-1], y)
 
 
 def test_an_estimator_that_rejected_every_band_says_so():

@@ -157,8 +157,8 @@ def write_fit(out: Path, res, *, data_label: str = "") -> dict:
         ax = None
         for j, k in enumerate(t.transfer_index):
             for o, s in enumerate(t.outputs[:1]):
-                ax = _transfer_lines(ax, f, t.transfer[:, o, j], q["transfer"][:, o, j],
-                                     f"{s} x = {t.positions[k]:.2f} m")
+                ax = plotting.plot_transfer_fit(f, t.transfer[:, o, j], q["transfer"][:, o, j],
+                                                f"{s} x = {t.positions[k]:.2f} m", ax=ax)
         ax.set_title(f"Transfer mobilities ({t.outputs[0]} sensor), {res.model} fit{of}")
         files["transfer_png"] = plotting.save_figure(ax.figure, out / "transfer.png")
     if t.tdr is not None and "tdr" in t.use:
@@ -180,50 +180,8 @@ def write_fit(out: Path, res, *, data_label: str = "") -> dict:
     ax.set_title(f"Residual per band, {res.model} fit{of}")
     files["residual_png"] = plotting.save_figure(ax.figure, out / "residual.png")
     if res.profiles:
-        files["profiles_png"] = _plot_profiles(out / "profiles.png", res)
+        axes = plotting.plot_profiles(
+            res.profiles, units={n: res.parameter(n)["unit"] for n in res.profiles},
+            threshold=CHI2_95)
+        files["profiles_png"] = plotting.save_figure(axes[0].figure, out / "profiles.png")
     return {k: str(v) for k, v in files.items()}
-
-
-def _transfer_lines(ax, f, measured, fitted, label):
-    if ax is None:
-        ax = _new_axes()
-    line, = ax.loglog(f, np.abs(measured), "o", markersize=3, label=f"{label} measured")
-    ax.loglog(f, np.abs(fitted), "-", color=line.get_color(), label=f"{label} fitted")
-    ax.set_xlabel("Frequency (Hz)")
-    ax.set_ylabel("Mobility (m/s/N)")
-    ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7)
-    return ax
-
-
-def _new_axes():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    _, ax = plt.subplots(figsize=(7.0, 5.0), layout="constrained")
-    return ax
-
-
-def _plot_profiles(path, res):
-    from .. import plotting
-
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    n = len(res.profiles)
-    fig, axes = plt.subplots(1, n, figsize=(4.0 * n, 3.5), layout="constrained",
-                             squeeze=False)
-    for ax, (name, p) in zip(axes[0], res.profiles.items()):
-        ax.semilogx(p["value"], p["delta_chi2"], "o-")
-        ax.axhline(CHI2_95, color="k", linestyle="--", linewidth=0.8,
-                   label="95 % threshold")
-        ax.set_xlabel(f"{name} ({res.parameter(name)['unit']})")
-        ax.set_ylabel("Delta chi-square")
-        ax.set_ylim(0, max(4 * CHI2_95, 1.0))
-        ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7)
-    return plotting.save_figure(fig, path)

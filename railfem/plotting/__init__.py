@@ -11,7 +11,8 @@ when ``Im k < 0``.
 
 The figures live by subject in :mod:`.dispersion`, :mod:`.frequency` (responses, band
 values, decay rates), :mod:`.rail` (along the rail, pass-by levels, mesh convergence),
-:mod:`.measure` (estimates against measurements or the truth) and :mod:`.diagnosis`;
+:mod:`.measure` (estimates against measurements or the truth), :mod:`.fitting` (a fit's
+measured and fitted mobilities, profile likelihoods) and :mod:`.diagnosis`;
 what they share (matplotlib setup, :func:`save_figure`, argument checks, band axis) is in
 :mod:`.base`. Import the names from ``railfem.plotting``.
 """
@@ -24,6 +25,7 @@ from .diagnosis import (plot_candidate_scores, plot_error_before_after, plot_res
                         plot_residual_map, plot_residual_spectrum)
 from .dispersion import (FAMILY_LINESTYLES, TYPE_COLOURS, branch_colours, plot_branches,
                          plot_dispersion, plot_dispersion_k)
+from .fitting import plot_profiles, plot_transfer_fit
 from .frequency import (DECAY_RATE_YLIM, mark_cut_ons, mark_frequencies, plot_band_values,
                         plot_decay_rate, plot_decay_rate_results, plot_magnitude_phase,
                         plot_point_mobility)
@@ -41,6 +43,7 @@ __all__ = [
     "plot_band_residual", "plot_passby_levels", "plot_decay_rate_estimates",
     "plot_roughness", "plot_band_errors", "plot_residual_map", "plot_residual_spectrum",
     "plot_residual_distance", "plot_error_before_after", "plot_candidate_scores",
+    "plot_transfer_fit", "plot_profiles",
     # constants of the figures (public before the split too, not listed then)
     "TYPE_COLOURS", "FAMILY_LINESTYLES", "DECAY_RATE_YLIM",
 ]
