@@ -500,7 +500,8 @@ def test_candidate_scores_draw_the_held_out_gate():
 
 
 def test_diagnose_job_draws_the_gate_of_its_rules(tmp_path, monkeypatch):
-    """candidates.png had no gate line: the job passes the diagnosis's MIN_GAIN."""
+    """candidates.png had no gate line: the job passes the diagnosis's MIN_GAIN. The
+    before/after figure (one panel per data part) is drawn by railfem.plotting."""
     from types import SimpleNamespace
 
     from railfem.diagnosis import loop
@@ -511,7 +512,8 @@ def test_diagnose_job_draws_the_gate_of_its_rules(tmp_path, monkeypatch):
             return []
 
         def band_table(self, bands):
-            return []
+            return [{"part": part, "quantity": "transfer", "band_hz": b, "rms_db": r, "n": 4}
+                    for part, r in (("fit", 1.5), ("held", 2.5)) for b in (125.0, 250.0)]
 
     d = SimpleNamespace(
         residual_before=NoResidual(), residual_after=None,
@@ -533,6 +535,12 @@ def test_diagnose_job_draws_the_gate_of_its_rules(tmp_path, monkeypatch):
     gates = [ln for a in drawn["candidates.png"].axes for ln in a.get_lines()
              if ln.get_gid() == "gate"]
     assert len(gates) == 1 and np.allclose(gates[0].get_ydata(), 100 * loop.MIN_GAIN)
+    panels = drawn["before_after_transfer.png"].axes
+    assert [a.get_title() for a in panels] == ["transfer: residual RMS per band, fit data",
+                                               "transfer: residual RMS per band, held data"]
+    assert [t.get_text() for t in panels[1].get_xticklabels()] == ["125", "250"]
+    heights = [p.get_height() for p in panels[1].patches]
+    assert heights[:2] == [2.5, 2.5] and np.isnan(heights[2:]).all()  # no 'after' model
 
 
 @pytest.mark.parametrize("wavelength", [

@@ -305,8 +305,8 @@ def _round(d):
 
 def figures(out: Path, d) -> list[str]:
     from ..plotting import (
-        plot_band_residual, plot_candidate_scores, plot_error_before_after, plot_residual_distance,
-        plot_residual_map, plot_residual_spectrum, save_figure,
+        plot_band_residual, plot_candidate_scores, plot_error_before_after_parts,
+        plot_residual_distance, plot_residual_map, plot_residual_spectrum, save_figure,
     )
 
     files = []
@@ -377,20 +377,14 @@ def figures(out: Path, d) -> list[str]:
     eb = error_table(rb, bands)
     ea = error_table(ra, bands) if ra is not None else []
     for q in sorted({r["quantity"] for r in eb}):
-        import matplotlib.pyplot as plt
-
-        parts = sorted({r["part"] for r in eb if r["quantity"] == q})
-        fig, axes = plt.subplots(len(parts), 1, figsize=(7, 3.2 * len(parts)), squeeze=False)
-        for ax, part in zip(axes[:, 0], parts):
+        panels = {}
+        for part in sorted({r["part"] for r in eb if r["quantity"] == q}):
             bb = {r["band_hz"]: r["rms_db"] for r in eb if r["quantity"] == q
                   and r["part"] == part}
             aa = {r["band_hz"]: r["rms_db"] for r in ea if r["quantity"] == q
                   and r["part"] == part}
             cs = sorted(bb)
-            plot_error_before_after(cs, [bb[c] for c in cs],
-                                    [aa.get(c, np.nan) for c in cs], ax=ax,
-                                    label=f"({part})")
-            ax.set_title(f"{q}: residual RMS per band, {part} data")
-        fig.tight_layout()
-        files.append(str(save_figure(fig, out / f"before_after_{q}.png")))
+            panels[part] = (cs, [bb[c] for c in cs], [aa.get(c, np.nan) for c in cs])
+        axes = plot_error_before_after_parts(q, panels)
+        files.append(str(save_figure(axes[0].figure, out / f"before_after_{q}.png")))
     return files

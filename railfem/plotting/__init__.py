@@ -21,7 +21,8 @@ from __future__ import annotations
 
 from ..rail.branches import MAX_ATTENUATION, propagating_mask
 from .base import nominal_band_label, save_figure
-from .diagnosis import (plot_candidate_scores, plot_error_before_after, plot_residual_distance,
+from .diagnosis import (plot_candidate_scores, plot_error_before_after,
+                        plot_error_before_after_parts, plot_residual_distance,
                         plot_residual_map, plot_residual_spectrum)
 from .dispersion import (FAMILY_LINESTYLES, TYPE_COLOURS, branch_colours, plot_branches,
                          plot_dispersion, plot_dispersion_k)
@@ -43,7 +44,7 @@ __all__ = [
     "plot_band_residual", "plot_passby_levels", "plot_decay_rate_estimates",
     "plot_roughness", "plot_band_errors", "plot_residual_map", "plot_residual_spectrum",
     "plot_residual_distance", "plot_error_before_after", "plot_candidate_scores",
-    "plot_transfer_fit", "plot_profiles",
+    "plot_transfer_fit", "plot_profiles", "plot_error_before_after_parts",
     # constants of the figures (public before the split too, not listed then)
     "TYPE_COLOURS", "FAMILY_LINESTYLES", "DECAY_RATE_YLIM",
 ]

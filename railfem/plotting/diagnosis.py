@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import MARKERS, axes_or_new, columns, curve_labels, legend, nominal_band_label, vector
+from .base import (MARKERS, axes_or_new, columns, curve_labels, legend, nominal_band_label,
+                   pyplot, vector)
 
 
 # ------------------------------------------------------------------ diagnosis (residuals)
@@ -103,6 +104,26 @@ def plot_error_before_after(centres, before, after, *, ax=None, label: str = "",
     ax.grid(True, axis="y", alpha=0.3)
     legend(ax)
     return ax
+
+
+def plot_error_before_after_parts(quantity: str, parts: dict, *, axes=None):
+    """:func:`plot_error_before_after` of one quantity, one panel per data part (stacked):
+    parts maps a part ('fit', 'held') to (centres, before, after). Returns the list of
+    Axes."""
+    if not parts:
+        raise ValueError("parts is empty: nothing to plot")
+    if axes is None:
+        fig, grid = pyplot().subplots(len(parts), 1, figsize=(7, 3.2 * len(parts)),
+                                      squeeze=False)
+        axes = list(grid[:, 0])
+    axes = list(np.ravel(axes))
+    if len(axes) != len(parts):
+        raise ValueError(f"got {len(axes)} axes for {len(parts)} parts")
+    for ax, (part, (centres, before, after)) in zip(axes, parts.items()):
+        plot_error_before_after(centres, before, after, ax=ax, label=f"({part})")
+        ax.set_title(f"{quantity}: residual RMS per band, {part} data")
+    axes[0].figure.tight_layout()
+    return axes
 
 
 def plot_candidate_scores(names, delta_bic, held_reduction, kept=None, *, gate=None,
