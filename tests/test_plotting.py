@@ -576,3 +576,8 @@ def test_residual_distance_scale_fits_the_distances(positions, scale, left):
     assert lo <= min(positions) and hi >= max(positions)
     if min(positions) >= 0:
         assert lo >= 0  # no empty negative half
+    if scale == "log":  # plain labels: 0.02 ... 16.8 m is 3 decades, decade ticks give 2
+        ax.figure.canvas.draw()
+        shown = [t.get_text() for t in ax.get_xticklabels() if t.get_text()
+                 and lo <= t.get_position()[0] <= hi]
+        assert len(shown) >= 4 and all(float(s) > 0 for s in shown), shown

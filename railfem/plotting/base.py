@@ -134,6 +134,31 @@ def plain_log_labels(axis) -> None:
     axis.set_minor_formatter(PlainLogFormatter(minor=True))
 
 
+def readable_log_ticks(axis) -> None:
+    """Labelled ticks at 1, 2 and 5 times the powers of ten ('%g': 0.5, 1, 2, 5, 10, ...) on
+    a log axis (1, 2, 3, 5, 7 on less than 1.5 decades, decades alone on more than 4): four
+    or more over the range, where decade ticks alone give two on two decades (roughness
+    wavelengths, hammer distances). Unlabelled minor ticks between."""
+    from matplotlib.ticker import FuncFormatter, Locator, LogLocator, NullFormatter
+
+    class OneTwoFiveLocator(Locator):
+        def __call__(self):
+            low, high = sorted(self.axis.get_view_interval())
+            if not low > 0:
+                return []
+            decades = np.log10(high / low)
+            subs = (1.0,) if decades > 4 else (1.0, 2.0, 5.0) if decades > 1.5 else (
+                1.0, 2.0, 3.0, 5.0, 7.0)
+            powers = 10.0 ** np.arange(np.floor(np.log10(low)), np.ceil(np.log10(high)) + 1)
+            ticks = np.sort(np.outer(powers, subs).ravel())
+            return ticks[(ticks >= low * (1 - 1e-9)) & (ticks <= high * (1 + 1e-9))]
+
+    axis.set_major_locator(OneTwoFiveLocator())
+    axis.set_major_formatter(FuncFormatter(lambda value, pos=None: f"{value:g}"))
+    axis.set_minor_locator(LogLocator(base=10.0, subs=np.arange(2.0, 10.0), numticks=30))
+    axis.set_minor_formatter(NullFormatter())
+
+
 def legend(ax) -> None:
     handles, names = ax.get_legend_handles_labels()
     if handles:

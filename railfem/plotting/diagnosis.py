@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import (MARKERS, axes_or_new, columns, curve_labels, legend, nominal_band_label,
-                   pyplot, vector)
+                   pyplot, readable_log_ticks, vector)
 
 
 # ------------------------------------------------------------------ diagnosis (residuals)
@@ -73,6 +73,7 @@ def plot_residual_distance(positions, values, labels=None, *, ax=None,
     ax.axhline(0.0, color="0.4", lw=0.8)
     if x.min() > 0:
         ax.set_xscale("log")
+        readable_log_ticks(ax.xaxis)
     else:
         ax.set_xscale("symlog", linthresh=0.6)
         if x.min() == 0:  # no empty negative half

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from .base import (MARKERS, axes_or_new, band_axes, band_ticks, columns, curve_labels, legend,
-                  plain_log_labels, vector)
+                  plain_log_labels, readable_log_ticks, vector)
 
 
 # ------------------------------------------------------- model vs measurement, per band
@@ -132,37 +132,12 @@ def plot_roughness(wavelength, levels: dict, *, ax=None, limit: bool = True,
     ax.set_xscale("log")
     if not ax.xaxis_inverted():
         ax.invert_xaxis()
-    _wavelength_ticks(ax.xaxis)
+    readable_log_ticks(ax.xaxis)
     ax.set_xlabel("Wavelength (cm)")
     ax.set_ylabel("Roughness level (dB re 1 um)")
     ax.grid(True, which="both", alpha=0.3)
     legend(ax)
     return ax
-
-
-def _wavelength_ticks(axis) -> None:
-    """Labelled ticks at 1, 2 and 5 times the powers of ten ('%g': 0.5, 1, 2, 5, 10, ...) on
-    a log wavelength axis (1, 2, 3, 5, 7 on less than 1.5 decades, decades alone on more
-    than 4): four or more over the range, where decade ticks alone give two on the two
-    decades of roughness wavelengths. Unlabelled minor ticks between."""
-    from matplotlib.ticker import FuncFormatter, Locator, LogLocator, NullFormatter
-
-    class WavelengthLocator(Locator):
-        def __call__(self):
-            low, high = sorted(self.axis.get_view_interval())
-            if not low > 0:
-                return []
-            decades = np.log10(high / low)
-            subs = (1.0,) if decades > 4 else (1.0, 2.0, 5.0) if decades > 1.5 else (
-                1.0, 2.0, 3.0, 5.0, 7.0)
-            powers = 10.0 ** np.arange(np.floor(np.log10(low)), np.ceil(np.log10(high)) + 1)
-            ticks = np.sort(np.outer(powers, subs).ravel())
-            return ticks[(ticks >= low * (1 - 1e-9)) & (ticks <= high * (1 + 1e-9))]
-
-    axis.set_major_locator(WavelengthLocator())
-    axis.set_major_formatter(FuncFormatter(lambda value, pos=None: f"{value:g}"))
-    axis.set_minor_locator(LogLocator(base=10.0, subs=np.arange(2.0, 10.0), numticks=30))
-    axis.set_minor_formatter(NullFormatter())
 
 
 def plot_band_errors(x, errors: dict, *, ax=None, xlabel: str = "Wavelength (cm)",
@@ -182,7 +157,7 @@ def plot_band_errors(x, errors: dict, *, ax=None, xlabel: str = "Wavelength (cm)
     ax.set_xscale("log")
     if invert and not ax.xaxis_inverted():
         ax.invert_xaxis()
-    _wavelength_ticks(ax.xaxis)
+    readable_log_ticks(ax.xaxis)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.grid(True, which="both", alpha=0.3)
