@@ -118,7 +118,7 @@ class Sleeper:
     mass_per_length: float = B90_SECTION["mass_per_length"]
     rotary_inertia: float = B90_SECTION["rotary_inertia"]
     eta: float = 0.02
-    n_elements: int = 24
+    n_elements: int = 40
 
     def __post_init__(self):
         v.one_of("Sleeper.model", self.model, SLEEPER_MODELS)
@@ -322,5 +322,11 @@ def _receptance(sl: Sleeper, case: str, w_bytes: bytes, s_bytes: bytes, shape) -
     return out.reshape(shape)
 
 
-__all__ = ["Sleeper", "B90", "B90_SECTION", "rectangular_section", "load_case", "half_nodes",
+def clear_cache() -> None:
+    """Forget the memoised modes and seat receptances (for timings)."""
+    _modes.cache_clear()
+    _receptance.cache_clear()
+
+
+__all__ = ["clear_cache", "Sleeper", "B90", "B90_SECTION", "rectangular_section", "load_case", "half_nodes",
            "ballast_stiffness", "seat_stiffness", "SLEEPER_MODELS", "CASES"]
