@@ -23,8 +23,8 @@ Skipped blocks (4):
 
 * README.md, ``bash scripts/setup.sh && railfem track ...``: installs system and Python packages;
 * README.md, ``bash scripts/setup.sh && python3 -m pytest``: installs packages, runs the tests;
-* README.md, ``python3 -m pytest`` (the test commands): the test suite itself;
-* README.md, ``python3 -m venv ...`` (set-up into a virtual environment): installs packages.
+* README.md, ``python3 -m venv ...`` (set-up into a virtual environment): installs packages;
+* README.md, ``python3 -m pytest`` (the test commands): the test suite itself.
 
 Blocks in documents that a reader runs from a clone (examples, benchmarks) are not in the
 user docs; tests/test_examples.py runs the examples.
@@ -48,8 +48,8 @@ PYTHON = {"python", "py"}
 SKIPPED = [
     ("README.md", "installs system and Python packages"),
     ("README.md", "installs packages and runs the test suite"),
-    ("README.md", "the test suite itself"),
     ("README.md", "installs packages into a virtual environment"),
+    ("README.md", "the test suite itself"),
 ]
 #: a shell block with one of these may not run from the doc test (it installs or recurses)
 MUST_SKIP = ("scripts/setup.sh", "pytest", "pip install", "venv")
