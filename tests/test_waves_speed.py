@@ -266,3 +266,52 @@ def test_labels_of_all_waves_at_once_equal_the_per_wave_projection():
         if e is not None:  # a symmetric wave carried by a rigid motion: that motion
             assert l == e
     assert "vertical bending" in got and "longitudinal" in got
+
+
+@pytest.mark.parametrize("eta", [0.001, 0.03, 0.1])
+def test_loss_factor_is_a_complex_frequency_of_the_rail_without_loss(eta):
+    """(1 + i eta) K(k) - omega^2 M = (1 + i eta) [K(k) - omega'^2 M], omega' = omega /
+    sqrt(1 + i eta): the waves of the damped rail are those of the undamped rail at the
+    complex frequency omega' (same k), and its receptance is the undamped one at omega'
+    divided by 1 + i eta. Solved independently: the damped rail at real omega, the rail
+    without loss at complex omega'."""
+    g, g0 = rail(0.02, eta), rail(0.02, 0.0)
+    loc = mobility.head_patch(g, 0.02)
+    fr = mobility.FamilyResponse(g, "symmetric", loc.weights[:, None], loc.weights[:, None])
+    fr0 = mobility.FamilyResponse(g0, "symmetric", loc.weights[:, None], loc.weights[:, None])
+    x = np.array([0.0, 0.6, 6.0])
+    for f in (200.0, 2500.0):
+        om = 2 * np.pi * f
+        w = waves.waves_at(fr.ops, om, method="shift-invert", n_waves=20)
+        w0 = waves.waves_at(fr0.ops, waves.loss_frequency(om, eta), method="shift-invert",
+                            n_waves=20)
+        assert np.abs(w.k - w0.k).max() < 1e-8 * np.abs(w.k).max()
+        r = mobility.wave_sum(fr, w, x, 0.02)
+        r0 = mobility.wave_sum(fr0, w0, x, 0.02) / (1 + 1j * eta)
+        assert np.abs(r - r0).max() < 1e-8 * np.abs(r).max()
+
+
+def test_kernel_at_another_rail_loss_factor_equals_a_fresh_one(monkeypatch):
+    """wfe.discrete_kernel(..., eta_r=) on a guide of another loss factor: the same kernel
+    as one built on a guide assembled with eta_r, and the undamped near-field tail is not
+    solved again (its eigen-solve is cached without the loss factor)."""
+    from railfem.track import wfe
+
+    g = rail(0.02, 0.01)
+    springs = wfe.foot_springs(g, 2)
+    load = mobility.head_patch(g, 0.02)
+    out = [mobility.point(g, "foot_sensor", "z")]
+    kw = dict(load=load, outputs=out, force_x=[0.0, 0.3], response_x=[0.0, 1.2],
+              spring_length=0.15, n_waves=20)
+    xs, f = np.arange(-5, 6) * 0.6, [100.0, 900.0, 3000.0]
+    wfe.discrete_kernel(g, springs, xs, f, **kw)
+    dense = []
+    solve = waves._lambdas_dense
+    monkeypatch.setattr(waves, "_lambdas_dense", lambda *a, **k: dense.append(1) or solve(*a, **k))
+    for eta in (0.001, 0.1):
+        got = wfe.discrete_kernel(g, springs, xs, f, eta_r=eta, **kw)
+        ref = wfe.discrete_kernel(rail(0.02, eta), springs, xs, f, **kw)
+        for name in ("ss", "sP", "rs", "rP"):
+            a, b = getattr(got, name), getattr(ref, name)
+            assert np.abs(a - b).max() < 1e-12 * np.abs(b).max(), name
+    assert not dense

@@ -6,7 +6,7 @@ mesh is solved as one family 'full' (T = identity). Code downstream iterates ove
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -74,6 +74,11 @@ class Waveguide:
     @property
     def loss_factor(self) -> float:
         return self.material.loss_factor
+
+    def with_loss_factor(self, eta: float) -> "Waveguide":
+        """The same section and matrices with the rail's loss factor eta (no re-assembly:
+        the matrices are stored before the loss factor)."""
+        return replace(self, material=replace(self.material, loss_factor=float(eta)))
 
     @property
     def n_dofs(self) -> int:

@@ -107,14 +107,24 @@ class FamilyOperators:
         """Digest of everything the waves depend on (matrices, loss factor, DOF order)."""
         if self._key is None:
             h = hashlib.blake2b(digest_size=20)
-            h.update(self.family.encode())
+            h.update(self.lossless_key)
             h.update(np.array([self.c.real, self.c.imag]).tobytes())
+            self._key = h.digest()
+        return self._key
+
+    @property
+    def lossless_key(self) -> bytes:
+        """Digest of the matrices and DOF order without the loss factor: what an undamped
+        (real-arithmetic) solve depends on, shared by operators of any loss factor."""
+        if getattr(self, "_lossless", None) is None:
+            h = hashlib.blake2b(digest_size=20)
+            h.update(self.family.encode())
             for arr in (self.order, self.T.indices, self.T.indptr, self.T.data,
                         self.pattern.indptr, self.pattern.indices, self.k0_data, self.m_data,
                         self.B0.indptr, self.B0.indices, self.B0.data):
                 h.update(np.ascontiguousarray(arr).tobytes())
-            self._key = h.digest()
-        return self._key
+            self._lossless = h.digest()
+        return self._lossless
 
     def dA(self, k: np.ndarray, phi: np.ndarray) -> np.ndarray:
         """psi_n^T A'(k_n) phi_n for every column, A' = c (2 k K2 + i K1)."""
@@ -227,15 +237,16 @@ def cache_info() -> dict:
             "limit_bytes": _cache_limit()}
 
 
-def _cached(ops: FamilyOperators, what: tuple, solve):
-    """solve() memoised per (operators' content, what) in a bounded LRU cache.
+def _cached(ops: FamilyOperators, what: tuple, solve, lossless: bool = False):
+    """solve() memoised per (operators' content, what) in a bounded LRU cache; with
+    ``lossless`` the content leaves out the loss factor (an undamped solve).
 
     Operators with an ``extra`` stiffness (a callable, e.g. a foundation of given parameters)
     are not cached: the callable's content cannot be keyed."""
     limit = _cache_limit()
     if limit <= 0 or ops.extra is not None:
         return solve()
-    key = (ops.key, what)
+    key = (ops.lossless_key if lossless else ops.key, what)
     hit = _cache.get(key)
     if hit is not None:
         _cache.move_to_end(key)
@@ -304,12 +315,25 @@ def waves_at(ops: FamilyOperators, omega: float, *, method: str = "dense",
              n_waves: int = 60) -> Waves:
     """Positive-going waves of one family at angular frequency omega (rad/s).
 
+    omega may be complex: with one hysteretic loss factor on the whole section the waves of
+    a rail of loss factor eta at omega are those of the same rail without loss at the
+    complex frequency omega / sqrt(1 + i eta) (``loss_frequency``), with denominators
+    divided by 1 + i eta.
+
     Results are cached in memory per (operators' content, omega, method, n_waves); the
     returned arrays are read-only."""
     if method not in ("dense", "shift-invert"):
         raise ValueError(f"wave solver method must be 'dense' or 'shift-invert', got {method!r}")
-    what = ("waves", float(omega), method, int(n_waves) if method == "shift-invert" else None)
+    om = complex(omega) if np.iscomplexobj(omega) else float(omega)
+    what = ("waves", om, method, int(n_waves) if method == "shift-invert" else None)
     return _cached(ops, what, lambda: _solve_waves(ops, omega, method, n_waves, ops.c))
+
+
+def loss_frequency(omega, eta: float) -> complex:
+    """The complex frequency omega / sqrt(1 + i eta) at which a rail without loss has the
+    waves of the rail of loss factor eta at omega: (1 + i eta) K(k) - omega^2 M is
+    (1 + i eta) [K(k) - omega^2 / (1 + i eta) M]."""
+    return omega / np.sqrt(1 + 1j * eta)
 
 
 def _solve_waves(ops, omega, method, n_waves, c, keep=slice(None), inverted=True) -> Waves:
@@ -321,36 +345,49 @@ def _solve_waves(ops, omega, method, n_waves, c, keep=slice(None), inverted=True
     psi^T M phi / psi^T A'(k) phi), before the ranking; otherwise the members of an undamped
     pair (k, -conj k) of equal |k| would be ranked by round-off, not as the damped waves."""
     with blas_threads():
-        if method == "dense":
-            lam, x = _lambdas_dense(ops, omega, c, inverted)
-        else:
-            try:
-                lam, x = _lambdas_shift_invert(ops, omega, n_waves, c)
-            except (spl.ArpackNoConvergence, RuntimeError) as exc:
-                log.warning("shift-invert wave solve failed at %.1f Hz (%s); using dense",
-                            omega / (2 * np.pi), exc)
-                lam, x = _lambdas_dense(ops, omega, c)
-        k = np.sqrt(lam.astype(complex))
-        k = np.where(k.imag > 0, -k, k)
-        x = np.asarray(x, dtype=complex)
-        x[: ops.na] *= 1j * k  # back-substitute u_a = i k w
-        undamped = np.abs(k.imag) <= 1e-6 * np.abs(k)  # eig round-off is ~1e-8
-        if undamped.any():
-            kr = k[undamped].real
-            forward = ops.group_velocity(omega, kr, x[:, undamped]) >= 0
-            k[undamped] = np.where(forward, kr, -kr)
-            x[: ops.na, undamped] *= np.where(forward, 1.0, -1.0)  # u_a = i k w, k -> -k
-        for j in _chunks(len(k)):  # column blocks: whole-matrix temporaries cost N^2 each
-            x[:, j] /= np.linalg.norm(x[:, j], axis=0)
-        if c != ops.c:
-            k = k + _loss_shift(ops, omega, c, k, x)
-        idx = np.argsort(np.abs(k))[keep]
-        k = k[idx]
-        denom = np.empty(len(idx), dtype=complex)
-        for j in _chunks(len(idx)):
-            denom[j] = ops.dA(k[j], x[:, idx[j]])
-        phi = x[np.ix_(np.argsort(ops.order), idx)]  # sorted columns, rows as reduced DOFs
-        return Waves(family=ops.family, omega=omega, k=k, phi=phi, denom=denom)
+        k, x = _eigen_pairs(ops, omega, method, n_waves, c, inverted)
+        return _ranked(ops, omega, c, k, x, keep)
+
+
+def _eigen_pairs(ops, omega, method, n_waves, c, inverted=True):
+    """(k, x): the positive-going wavenumbers of A = c K(k) - omega^2 M and their shapes
+    (ordered DOFs, unit columns), unsorted. omega may be complex (a complex frequency)."""
+    if method == "dense":
+        lam, x = _lambdas_dense(ops, omega, c, inverted)
+    else:
+        try:
+            lam, x = _lambdas_shift_invert(ops, omega, n_waves, c)
+        except (spl.ArpackNoConvergence, RuntimeError) as exc:
+            log.warning("shift-invert wave solve failed at %.1f Hz (%s); using dense",
+                        abs(omega) / (2 * np.pi), exc)
+            lam, x = _lambdas_dense(ops, omega, c)
+    k = np.sqrt(lam.astype(complex))
+    k = np.where(k.imag > 0, -k, k)
+    x = np.asarray(x, dtype=complex)
+    x[: ops.na] *= 1j * k  # back-substitute u_a = i k w
+    undamped = np.abs(k.imag) <= 1e-6 * np.abs(k)  # eig round-off is ~1e-8
+    if undamped.any():
+        kr = k[undamped].real
+        forward = ops.group_velocity(np.real(omega), kr, x[:, undamped]) >= 0
+        k[undamped] = np.where(forward, kr, -kr)
+        x[: ops.na, undamped] *= np.where(forward, 1.0, -1.0)  # u_a = i k w, k -> -k
+    for j in _chunks(len(k)):  # column blocks: whole-matrix temporaries cost N^2 each
+        x[:, j] /= np.linalg.norm(x[:, j], axis=0)
+    return k, x
+
+
+def _ranked(ops, omega, c, k, x, keep=slice(None)) -> Waves:
+    """Waves of rank ``keep`` by |k| from eigenpairs solved with c, moved to ops.c (see
+    _solve_waves); x is only read."""
+    if c != ops.c:
+        k = k + _loss_shift(ops, omega, c, k, x)
+    idx = np.argsort(np.abs(k))[keep]
+    k = k[idx]
+    denom = np.empty(len(idx), dtype=complex)
+    for j in _chunks(len(idx)):
+        denom[j] = ops.dA(k[j], x[:, idx[j]])
+    phi = x[np.ix_(np.argsort(ops.order), idx)]  # sorted columns, rows as reduced DOFs
+    return Waves(family=ops.family, omega=omega, k=k, phi=phi, denom=denom)
 
 
 def _chunks(n: int, size: int = 256):
@@ -387,14 +424,28 @@ def frozen_tail(ops: FamilyOperators, omega0: float, n_waves: int, *,
     damped operator. Against the tail solved with the loss factor (``damped=True``, complex
     arithmetic) point receptances differ by < 1e-9 (tests/test_waves_speed.py); the
     real solve takes a third of the time and a quarter of the memory
-    (benchmarks/bench_waveguide.py). Cached like waves_at.
+    (benchmarks/bench_waveguide.py). Cached like waves_at; the undamped eigen-solve is
+    cached without the loss factor, so operators of another loss factor on the same
+    matrices (a kernel at another eta_r, Waveguide.with_loss_factor) only redo the
+    first-order move.
     """
-    def solve():
-        c = ops.c if damped else 1.0 + 0j
-        return _solve_waves(ops, omega0, "dense", 0, c, keep=slice(n_waves, None),
-                            inverted=False)
+    if damped:
+        return _cached(ops, ("tail", float(omega0), int(n_waves), True), lambda: _solve_waves(
+            ops, omega0, "dense", 0, ops.c, keep=slice(n_waves, None), inverted=False))
 
-    return _cached(ops, ("tail", float(omega0), int(n_waves), bool(damped)), solve)
+    def solve():
+        return _ranked(ops, omega0, 1.0 + 0j, *undamped_pairs(), keep=slice(n_waves, None))
+
+    def undamped_pairs():  # the loss-free eigen-solve, shared by every loss factor
+        def eig():
+            with blas_threads():
+                k, x = _eigen_pairs(ops, omega0, "dense", 0, 1.0 + 0j, inverted=False)
+            return Waves(family=ops.family, omega=omega0, k=k, phi=x, denom=np.empty(0))
+
+        w = _cached(ops, ("undamped pairs", float(omega0)), eig, lossless=True)
+        return w.k, w.phi
+
+    return _cached(ops, ("tail", float(omega0), int(n_waves), False), solve)
 
 
 def join(*waves: Waves) -> Waves:

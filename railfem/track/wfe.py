@@ -268,13 +268,18 @@ def discrete_kernel(guide: Waveguide, springs: FootSprings, spring_x, frequency,
                     load: Location, outputs: list[Location], force_x, response_x,
                     spring_length: float = 0.0, load_length: float = 0.02,
                     response_length: float = 0.0, n_waves: int = 40, tail: bool = True,
-                    progress=None) -> DiscreteKernel:
+                    progress=None, eta_r: float | None = None) -> DiscreteKernel:
     """The parameter-free part of the discrete-support model (railfem.track.coupling): free-rail
     receptances between the spring sets at ``spring_x`` (m; one set of foot springs per
     support or row), the load at ``force_x`` and the outputs at ``response_x``.
 
     spring_length: length along the rail over which each set spreads its force (m);
-    load_length / response_length: the same for the load and the outputs."""
+    load_length / response_length: the same for the load and the outputs.
+    eta_r: the rail's loss factor, default the guide's; another value re-uses the guide's
+    matrices and its undamped near-field tail (waves.frozen_tail): only the retained waves
+    are solved again."""
+    if eta_r is not None and eta_r != guide.loss_factor:
+        guide = guide.with_loss_factor(eta_r)
     f, fx, rx = _axes(frequency, force_x, response_x)
     xs = np.atleast_1d(np.asarray(spring_x, dtype=float))
     W, S, P, R, families, share, code = _columns(guide, springs, load, outputs)
