@@ -109,8 +109,8 @@ def _mark_text_layout(ax, marks, merge_ratio=None):
         group = [mark]
         while True:
             end = groups[-1][2] if groups else -np.inf
-            close = (merge_ratio is not None and groups
-                     and group[0][1] <= groups[-1][0][-1][1] * merge_ratio)
+            close = (merge_ratio is not None and groups and abs(
+                np.log(group[0][1] / groups[-1][0][-1][1])) <= np.log(merge_ratio))
             thick = unit * (_TEXT_THICKNESS + _LINE_STEP * (len(group) - 1))
             if not close and group[0][0] - thick - unit * _TEXT_GAP >= end:
                 groups.append([group, "right", group[0][0]])  # ends at its first line
