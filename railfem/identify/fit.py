@@ -40,16 +40,17 @@ from scipy.stats import qmc
 
 from railfem.identify import data as fdata
 from railfem.identify import uncertainty
+from railfem.identify.base import BASE_PARAMETERS, default_base, describe_base
 from railfem.identify.forward import ForwardModel, Geometry, slow_names
 from railfem.identify.problem import Problem, SlowProfile
 from railfem.measurement import DecayRateMeasurement, HammerMeasurement
 from railfem.params import ParameterSpace
-from railfem.spec import TrackSpec, preset, spec_to_dict
+from railfem.spec import TrackSpec, spec_to_dict
 from railfem.standards import iec61260
 
 log = logging.getLogger(__name__)
 
-DEFAULT_PARAMETERS = ("kp", "eta_p", "kb", "eta_b", "eta_r")
+DEFAULT_PARAMETERS = BASE_PARAMETERS  # the one base model (railfem.identify.base)
 #: Search box of a fit (SI); wider than any track of METHOD.md Table 1.
 FIT_BOUNDS = {
     "kp": (1e7, 1e10), "eta_p": (0.01, 2.0), "kb": (5e6, 2e9), "eta_b": (0.02, 5.0),
@@ -173,6 +174,7 @@ class FitResult:
 
         return {
             "railfem_version": __version__, "model": self.model, "names": list(self.names),
+            "base_model": describe_base(self.spec, self.names),
             "parameters": self.parameters, "correlation": self.correlation.tolist(),
             "singular_values": self.analysis["singular_values"],
             "residual_variance": self.analysis["residual_variance"],
@@ -194,9 +196,10 @@ class FitResult:
 
 
 def base_spec(data, model: str, base: TrackSpec | None = None) -> TrackSpec:
-    """The spec the fit starts from: ``base`` or the 'site' preset, with the model and the
-    measurement's sleeper spacing."""
-    spec = base if base is not None else preset("site")
+    """The spec the fit starts from: ``base`` or the base model of every calibration
+    (railfem.identify.base.default_base: the site preset on point supports), with the model
+    and the measurement's sleeper spacing."""
+    spec = base if base is not None else default_base(model)
     spacing = getattr(data, "sleeper_spacing", None)
     changes = {"model": model}
     if spacing is not None and abs(spacing - spec.spacing) > 1e-12:
@@ -229,8 +232,9 @@ def fit(data, model: str = "wfe-discrete", *, parameters=DEFAULT_PARAMETERS, bas
     """Fit the track parameters ``parameters`` of ``model`` to ``data``.
 
     data: HammerMeasurement, DecayRateMeasurement (needs base or the default spacing) or
-    Target. base: the TrackSpec whose other values are kept (default the 'site' preset with
-    the measurement's spacing). bounds: {name: (low, high)} SI, overriding FIT_BOUNDS.
+    Target. base: the TrackSpec whose other values are kept (default the base model of
+    railfem.identify.base: site preset, point supports, the measurement's spacing).
+    bounds: {name: (low, high)} SI, overriding FIT_BOUNDS.
     use: quantities (railfem.identify.data.QUANTITIES). workers: processes (default all
     cores, 1 = serial). cache: kernel cache (railfem.models). profiles: parameters to
     profile. slow_nodes / slow_refine: kernel-parameter profile (defaults: 7 / 8 for the
