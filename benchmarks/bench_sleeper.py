@@ -9,7 +9,8 @@ EN 15461 hammer positions, head sensor at mid-span: one ``railfem.models.frf`` c
 option. The free-rail kernel does not depend on the supports, so it is computed once (the
 default model's first call, "cold") and every option reuses it: the times of the options
 are their coupling solves plus the sleeper's seat receptance (its memo cleared before
-every run); best of 5 (the machine may be shared: see the load lines). Ratios to the default model's re-evaluation in the same run.
+every run); best of 5 (the machine may be shared: see the load lines). Ratios to the
+default model's re-evaluation in the same run.
 """
 from __future__ import annotations
 

@@ -47,17 +47,17 @@ L = 2.6 m, g = 1.5 m: a uniform rigid sleeper rocks at the frequency it bounces 
 phase, alpha_s = 1 / (kb* - omega^2 ms): the published model.
 
 **Default sleeper (B90/B91-type monobloc prestressed concrete, equivalent uniform
-section; the numbers are assumed, from the sources named):** length 2.6 m and the rail seats
-at +-0.75 m (1435 mm gauge, rail centres 1.5 m apart; DB B90/B91 drawings); mass 300 kg
-(about 300 kg quoted for B90-type sleepers; Thompson, Railway Noise and Vibration, 2009,
-ch. 3, models concrete monobloc sleepers of 250-320 kg as uniform Timoshenko beams);
-equivalent rectangle 0.25 m wide (mean of the ~0.30 m base and the ~0.20 m top) and
-0.1923 m deep (so that rho A L = 300 kg); concrete E = 37 GPa (E_cm of C50/60, EN 1992-1-1
-Table 3.1), nu = 0.2, rho = 2400 kg/m^3; kappa = 5/6 (rectangle); loss factor 0.02
-(assumed: free sleeper modes with ~1 % of critical damping, the order reported by Grassie,
-J. Sound Vib. 187, 1995, and by Kaewunruen & Remennikov, 2005-2008, for prestressed
-concrete sleepers). This gives a first free-free bending mode near 110 Hz, inside the
-range measured on monobloc concrete sleepers (about 100-200 Hz).
+section; assumed values, with the sources they lean on):** length 2.6 m (the length of
+the German B70/B90 family); rail seats at +-0.75 m (1435 mm gauge, rail centres 1.5 m
+apart); mass 300 kg (assumed: sleepers of this family weigh about 280-320 kg); modelled as
+a uniform Timoshenko beam, as in the sleeper models of Grassie (J. Sound Vib. 187, 1995)
+and Thompson (Railway Noise and Vibration, 2009, ch. 3); equivalent rectangle 0.25 m wide
+(between the ~0.30 m base and the ~0.20 m top) and 0.1923 m deep (so that rho A L =
+300 kg); concrete E = 37 GPa (E_cm of C50/60, EN 1992-1-1 Table 3.1), nu = 0.2, rho =
+2400 kg/m^3; kappa = 5/6 (rectangle); loss factor 0.02 (assumed: free sleeper modes with
+about 1 % of critical damping, the order reported for prestressed concrete sleepers by
+Grassie and by Kaewunruen & Remennikov, 2005-2008). This gives a first free-free bending
+mode at 113 Hz; measured monobloc concrete sleepers have it at about 100-200 Hz.
 
 Conventions (railfem.conventions): exp(+i omega t); SI units (N, m, kg, rad/s).
 """
@@ -186,6 +186,15 @@ class Sleeper:
 
 #: The default flexible sleeper (B90/B91-type, module docstring).
 B90 = Sleeper()
+
+
+#: Assumed values for the participating ballast mass (SupportParameters.mb, kf, eta_f):
+#: ballast of density ~1800 kg/m^3 in the load-spreading cone under half a sleeper
+#: (0.3 m deep, ~0.22 m^3: the construction of Zhai et al.'s ballast model, J. Sound Vib.
+#: 270, 2004) gives ~400 kg per rail seat; subgrade 80 MN/m per rail seat with loss
+#: factor 0.5 (assumed, the order of a ballast stiffness). Use with ``kb`` the ballast
+#: layer alone: the static stiffness is kb and kf in series.
+TWO_LAYER_ASSUMED = {"mb": 400.0, "kf": 80e6, "eta_f": 0.5}
 
 
 def load_case(sleeper: Sleeper | None, case: str) -> tuple[Sleeper | None, str]:
@@ -328,5 +337,5 @@ def clear_cache() -> None:
     _receptance.cache_clear()
 
 
-__all__ = ["clear_cache", "Sleeper", "B90", "B90_SECTION", "rectangular_section", "load_case", "half_nodes",
-           "ballast_stiffness", "seat_stiffness", "SLEEPER_MODELS", "CASES"]
+__all__ = ["clear_cache", "Sleeper", "B90", "B90_SECTION", "rectangular_section", "load_case",
+           "half_nodes", "ballast_stiffness", "TWO_LAYER_ASSUMED", "seat_stiffness", "SLEEPER_MODELS", "CASES"]
