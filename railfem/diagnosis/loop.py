@@ -27,11 +27,18 @@ effect (and the best pairs), score, validate on held-out data, and decide.
    *supported*: BIC below the base's by more than DELTA_BIC.
 5. **Pairs** of the (up to three) best kept candidates, kept over the best single by the
    same gates.
-6. **Decision**: the best kept model is refitted with the rail loss factor profiled; if its
-   residual is noise (railfem.diagnosis.residual.structure_test) or its structured part is
-   below NEGLIGIBLE_DB, the effect *explains* the residual; if structure remains it
-   *partly explains* it; with no kept candidate "no candidate explains the residual". When
+6. **Decision**: the best kept model is refitted with the rail loss factor profiled and
+   gated again (plausibility, as at screening: its intervals now carry the rail loss
+   factor); one that fails is not kept (the verdict says why) and the next kept one is
+   refitted in its place. If the chosen model's residual is noise
+   (railfem.diagnosis.residual.structure_test) or its structured part is below
+   NEGLIGIBLE_DB, the effect *explains* the residual; if structure remains it *partly
+   explains* it; with no kept candidate "no candidate explains the residual". When
    the base residual is already noise, nothing is claimed.
+
+A candidate that fails (an exception in its screening, a pair or its final refit) is
+logged and listed in ``Diagnosis.failures`` (candidate, stage, error); the run goes on.
+The base (railfem.identify.base) is the one ``railfem fit`` starts from.
 """
 from __future__ import annotations
 
@@ -48,10 +55,9 @@ from railfem.diagnosis import residual as resid
 from railfem.diagnosis.data import DiagnosisData, prepare
 from railfem.diagnosis.evaluate import Evaluator
 from railfem.diagnosis.problem import BASE, Problem, noise_scale, table
-from railfem.diagnosis.refit import (REFINE_STEPS, Outcome, interval_from_profile,
-                                     profile_eta_r, profile_inflation, refit)
-from railfem.identify.problem import SlowProfile
-from railfem.spec import TrackSpec, model_kind, preset
+from railfem.diagnosis.refit import REFINE_STEPS, Outcome, joint_profile, profile_eta_r, refit
+from railfem.identify.base import default_base, describe_base
+from railfem.spec import TrackSpec, model_kind
 from railfem.standards import iec61260
 
 log = logging.getLogger(__name__)
@@ -85,6 +91,8 @@ class Diagnosis:
     residual_after: resid.Residual | None = None
     seconds: dict = field(default_factory=dict)
     skipped: dict = field(default_factory=dict)
+    failures: list = field(default_factory=list)  # {candidate, stage, error}
+    base_model: str = ""
 
     @property
     def ranking(self) -> list[str]:
@@ -122,6 +130,20 @@ def grid_values(effect, data: DiagnosisData, model: str = "") -> dict:
         outs = sorted({o for r in data.records for o in r.fit.outputs})
         out[(effect.name, "sensor")] = ("all",) + (tuple(outs) if len(outs) > 1 else ())
     return out
+
+
+def merge_grids(*grids: dict) -> dict:
+    """One {(effect, name): values} of several effects' grid values (keys are tuples: not
+    keyword arguments, so never ``dict(a, **b)``)."""
+    out = {}
+    for g in grids:
+        out.update(g)
+    return out
+
+
+def pair_grid_values(ea, eb, data: DiagnosisData, model: str = "") -> dict:
+    """The grid values of a pair of effects (grid_values of each, merged)."""
+    return merge_grids(grid_values(ea, data, model), grid_values(eb, data, model))
 
 
 def held_gate(ref: Outcome, cand: Outcome, pred_ref=None, pred_c=None) -> dict:
@@ -196,51 +218,6 @@ def plausibility(o: Outcome) -> tuple[bool, str]:
     return True, ""
 
 
-def joint_profile(data, ev, spec_b, effect, start: Outcome, scale, gv) -> Outcome:
-    """A numeric kernel grid parameter (one) profiled with the rail loss factor free at
-    every value (a lattice profile each), then one parabolic step in the grid parameter;
-    its profile and 95 % interval come from these costs."""
-    (key,) = [(effect.name, n) for n in effect.grid]
-    values = sorted(gv.get(key, effect.grid[key[1]]))
-
-    def evaluate(v):
-        near = prof.nearest(v) if prof.points else start
-        o = refit(data, ev, spec_b.replace(eta_r=near.eta_r), (effect,), near.x[:len(BASE)],
-                  scale, grid_values={key: (v,)}, refine=False, x_start=near.x)
-        o = profile_eta_r(data, ev, spec_b, (effect,), o, scale, max_steps=6,
-                          refine=True)  # a smooth profile for the steps below
-        log.info("diagnosis: %s %s = %.5g: cost %.3f at the best rail-loss kernel, "
-                 "%.3f interpolated", effect.name, key[1], v, o.cost, o.profile_cost)
-        return o
-
-    # a profile point's cost is its rail-loss profile's interpolated minimum: after
-    # parabolic steps of 0.001 decades the best kernel's cost still sat up to ~1 cost unit
-    # (s^2 ~ 1) above it in the blind study (the cost's curvature in log10 eta_r is ~3e6
-    # on a 29-position test), a jitter of the order of the 95 % threshold (3.84 s^2)
-    def point_cost(o):
-        return o.profile_cost if o.profile_cost is not None else o.cost
-
-    prof = SlowProfile(evaluate, cost=point_cost)
-    for v in values:
-        prof.at(v)
-    prof.refine(REFINE_STEPS, 1e-4 * (values[-1] - values[0]))
-    done = prof.points
-
-    def cost(u):
-        return point_cost(done[u])
-
-    v = sorted(done)
-    best = done[min(v, key=cost)]
-    prof = {"values": [float(u) for u in v], "cost": [float(cost(u)) for u in v],
-            "value": float(best.grid[key]), "integer": False,
-            "note": "rail loss factor refitted at every value"}
-    prof["inflation"] = profile_inflation(best, key, prof)
-    prof.update(interval_from_profile(prof, best.analysis["residual_variance"]
-                                      * prof["inflation"]))
-    best.grid_profiles = {key: prof}
-    return best
-
-
 def _row(o: Outcome, ref: Outcome, base: Outcome, gate: dict, ok: bool, why: str) -> dict:
     return {"name": o.name, "effects": [e.name for e in o.effects], "k": o.k, "n": o.n,
             "cost": o.cost, "aicc": o.aicc, "bic": o.bic,
@@ -269,6 +246,14 @@ class Search:
     base: Outcome | None = None
     pred_base: dict | None = None
     profile_final: bool = True
+    failures: list = field(default_factory=list)
+
+    def fail(self, candidate: str, stage: str, exc: BaseException) -> None:
+        """Record (and log) that ``candidate`` failed at ``stage``: the run goes on."""
+        msg = f"{type(exc).__name__}: {exc}"
+        self.failures.append({"candidate": candidate, "stage": stage, "error": msg})
+        log.warning("diagnosis: %s failed at %s: %s", candidate, stage, msg,
+                    exc_info=log.isEnabledFor(logging.DEBUG))
 
     @property
     def wfe(self) -> bool:
@@ -367,21 +352,20 @@ def screen_single(s: Search, e) -> Outcome:
     return o
 
 
-def screen_singles(s: Search, cands, skipped: dict) -> tuple[dict, list]:
+def screen_singles(s: Search, cands) -> tuple[dict, list]:
     """Step 3: every candidate refitted, gated and scored against the base
-    ({name: Outcome}, rows); a failed refit is recorded in ``skipped``."""
+    ({name: Outcome}, rows); a candidate that fails is recorded in ``s.failures``."""
     outcomes, rows = {}, []
     for e in cands:
         te = time.perf_counter()
         try:
             o = screen_single(s, e)
-        except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
-            skipped[e.name] = f"refit failed: {exc}"
-            log.warning("diagnosis: %s failed: %s", e.name, exc)
+            gate = held_gate(s.base, o, pred_ref=s.pred_base)
+            ok, why = plausibility(o)
+            row = _row(o, s.base, s.base, gate, ok, why)
+        except Exception as exc:  # noqa: BLE001 - one candidate must not end the run
+            s.fail(e.name, "screening", exc)
             continue
-        gate = held_gate(s.base, o, pred_ref=s.pred_base)
-        ok, why = plausibility(o)
-        row = _row(o, s.base, s.base, gate, ok, why)
         row["seconds"] = time.perf_counter() - te
         outcomes[o.name] = o
         rows.append(row)
@@ -414,19 +398,26 @@ def screen_pairs(s: Search, outcomes: dict, rows: list, max_pairs: int) -> None:
                 continue
             ref = outcomes[top[i]["name"]]
             try:
-                gv = dict(grid_values(ea, s.data, s.model), **grid_values(eb, s.data, s.model))
-                o = refit(s.data, s.ev, s.spec, (ea, eb), s.x_base, s.scale, grid_values=gv,
+                o = refit(s.data, s.ev, s.spec, (ea, eb), s.x_base, s.scale,
+                          grid_values=pair_grid_values(ea, eb, s.data, s.model),
                           refine_steps=s.refine_steps)
                 if s.profiles:
                     o = profile_eta_r(s.data, s.ev, s.spec, (ea, eb), o, s.scale,
                                       max_steps=6, refine=False)
-            except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
-                log.warning("diagnosis: pair %s+%s failed: %s", ea.name, eb.name, exc)
+                gate = held_gate(ref, o)
+                ok, why = plausibility(o)
+                row = _row(o, ref, s.base, gate, ok, why)
+            except Exception as exc:  # noqa: BLE001 - one pair must not end the run
+                s.fail(f"{ea.name}+{eb.name}", "pairs", exc)
                 continue
-            gate = held_gate(ref, o)
-            ok, why = plausibility(o)
             outcomes[o.name] = o
-            rows.append(_row(o, ref, s.base, gate, ok, why))
+            rows.append(row)
+
+
+def _sort(rows: list) -> None:
+    rows.sort(key=lambda r: (not r["kept"], r["bic"]))
+    for i, r in enumerate(rows, 1):
+        r["rank"] = i
 
 
 def rank(s: Search, outcomes: dict, rows: list) -> tuple[Outcome | None, dict | None]:
@@ -435,13 +426,41 @@ def rank(s: Search, outcomes: dict, rows: list) -> tuple[Outcome | None, dict | 
     for r in rows:
         ref_bic = outcomes[r["reference"]].bic if r["reference"] != "base" else s.base.bic
         r["kept"] = _kept(r, ref_bic)
-    rows.sort(key=lambda r: (not r["kept"], r["bic"]))
-    for i, r in enumerate(rows, 1):
-        r["rank"] = i
+    _sort(rows)
     kept = [r for r in rows if r["kept"]]
     if not kept:
         return None, None
     return outcomes[kept[0]["name"]], kept[0]
+
+
+def final_gate(o: Outcome) -> tuple[bool, str]:
+    """The screening's plausibility gate on a final refit (its rail loss factor profiled,
+    the intervals redone with it free): every effect parameter inside its bounds and not
+    unidentifiable. (True, '') or (False, why)."""
+    return plausibility(o)
+
+
+def choose(s: Search, outcomes: dict, rows: list) -> tuple[Outcome | None, dict | None]:
+    """Step 6: the kept rows in rank order, each refitted (final_refit) and gated again
+    (final_gate); the first that passes is chosen. One that fails its final refit or its
+    gate is not kept (the row says why: ``final_rejected``, a failure in ``s.failures``)
+    and the next is considered. Returns (the final Outcome, its row) or (None, None)."""
+    rank(s, outcomes, rows)
+    for row in [r for r in rows if r["kept"]]:
+        try:
+            final = final_refit(s, outcomes[row["name"]])
+            ok, why = final_gate(final)
+        except Exception as exc:  # noqa: BLE001 - one candidate must not end the run
+            s.fail(row["name"], "final refit", exc)
+            ok, why = False, f"the final refit failed ({type(exc).__name__}: {exc})"
+        if ok:
+            _sort(rows)
+            return final, row
+        row["kept"] = False
+        row["final_rejected"] = why
+        log.info("diagnosis: %s not kept after its final refit: %s", row["name"], why)
+    _sort(rows)
+    return None, None
 
 
 def final_refit(s: Search, chosen: Outcome) -> Outcome:
@@ -459,6 +478,15 @@ def final_refit(s: Search, chosen: Outcome) -> Outcome:
                          max_steps=s.eta_r_steps)
 
 
+def base_of(data: DiagnosisData, model: str, base: TrackSpec | None = None) -> TrackSpec:
+    """The base spec of a diagnosis: ``base`` or the base model every calibration starts
+    from (railfem.identify.base.default_base: the site preset on point supports; a pad of
+    finite length is one of the effects the search compares, effects/pad_length.py), with
+    ``model`` and the data's sleeper spacing."""
+    spec0 = base if base is not None else default_base(model)
+    return spec0.replace(model=model, spacing=data.spacing)
+
+
 def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None,
              effects=None, spacing: float | None = None, pairs: bool = True,
              n_starts: int = 4, workers: int = 1, cache=False, seed: int = 0,
@@ -467,17 +495,16 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
     """Diagnose ``data`` (a HammerMeasurement, DecayRateMeasurement/Table, a list of them or
     DiagnosisData) with track model ``model``; ``effects``: names from the library
     (default all but those with ``screened=False``, e.g. random_support; "all": every
-    one); ``base``: the spec whose other values are kept (default the site
-    preset with point-like supports, pad_length = 0); ``data_options``: to
-    railfem.diagnosis.data.prepare (e.g. f_range=(50, 2000), sensors=['head']). See the
-    module docstring for the steps."""
+    one); ``base``: the spec whose other values are kept (default
+    railfem.identify.base.default_base: the site preset on point supports, as ``railfem
+    fit``); ``data_options``: to railfem.diagnosis.data.prepare (e.g. f_range=(50, 2000),
+    sensors=['head']). See the module docstring for the steps. A candidate that fails
+    (an exception in its screening, its pairs or its final refit) is logged and listed in
+    ``Diagnosis.failures``; the run goes on without it."""
     t0 = time.perf_counter()
     seconds = {}
     data = prepare(data, spacing=spacing, **(data_options or {}))
-    # the default base has point-like supports (the published configuration): a pad of
-    # finite length is one of the effects the search can find (effects/pad_length.py)
-    spec0 = base if base is not None else preset("site", pad_length=0.0)
-    spec0 = spec0.replace(model=model, spacing=data.spacing)
+    spec0 = base_of(data, model, base)
     cands, skipped = select_effects(data, model, effects)
     ev = make_evaluator(cands, data, cache)
 
@@ -492,55 +519,69 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
              st_before["verdict"], st_before["p"], st_before["structured_rms_db"])
 
     t = time.perf_counter()  # 3. single candidates (eta_r at the base value), 4. gates
-    outcomes, rows = screen_singles(s, cands, skipped)
+    outcomes, rows = screen_singles(s, cands)
     seconds["singles"] = time.perf_counter() - t
     t = time.perf_counter()  # 5. pairs of the best kept singles
     if pairs:
         screen_pairs(s, outcomes, rows, max_pairs)
     seconds["pairs"] = time.perf_counter() - t
 
-    chosen, chosen_row = rank(s, outcomes, rows)  # 6. ranking, final refit, decision
-    t = time.perf_counter()
+    t = time.perf_counter()  # 6. ranking, final refit and its gates, decision
+    chosen, chosen_row = choose(s, outcomes, rows)
     st_after = res_after = None
     if chosen is not None:
-        chosen = final_refit(s, chosen)
         res_after = resid.make_residual(data, chosen.problem.predict(chosen.x))
         st_after = resid.structure_test(res_after, n_parameters=chosen.k, repeats=repeats)
         chosen_row = dict(chosen_row, final_parameters=chosen.parameters(),
                           final_held_out=held_gate(s.base, chosen, pred_ref=s.pred_base))
     seconds["final"] = time.perf_counter() - t
-    verdict, statement = decide(st_before, st_after, chosen, chosen_row, rows)
+    verdict, statement = decide(st_before, st_after, chosen, chosen_row, rows, s.failures)
     seconds["total"] = time.perf_counter() - t0
     log.info("diagnosis: %s (%.1f s)", statement, seconds["total"])
     return Diagnosis(data=data, model=model, base=s.base, base_fit=fr,
                      structure_before=st_before, residual_before=res_before,
                      candidates=rows, chosen=chosen, chosen_row=chosen_row, verdict=verdict,
                      statement=statement, structure_after=st_after, residual_after=res_after,
-                     seconds=seconds, skipped=skipped)
+                     seconds=seconds, skipped=skipped, failures=s.failures,
+                     base_model=describe_base(s.spec))
 
 
 def _explains(st: dict) -> bool:
     return st["verdict"] == "noise" or st["structured_rms_db"] < resid.NEGLIGIBLE_DB
 
 
-def decide(st_before, st_after, chosen, chosen_row, rows) -> tuple[str, str]:
+def _failed(failures) -> str:
+    if not failures:
+        return ""
+    return ("; not judged (failed): "
+            + ", ".join(f"{f['candidate']} at {f['stage']}" for f in failures))
+
+
+def decide(st_before, st_after, chosen, chosen_row, rows, failures=()) -> tuple[str, str]:
     """(verdict, plain statement). Verdicts: 'noise' (the base explains the data),
-    'explained', 'partly explained', 'unexplained'."""
+    'explained', 'partly explained', 'unexplained'. Candidates rejected after their final
+    refit and candidates that failed are named in the statement."""
+    fails = _failed(failures)
+    late = [r for r in rows if r.get("final_rejected")]
+    why = "".join(f"; {r['name']} passed the screening gates but not after its final "
+                  f"refit: {r['final_rejected']}" for r in late)
     if _explains(st_before) and chosen is None:
         return "noise", ("the base model explains the data: its residual is consistent with "
                          f"noise (p = {st_before['p']:.3g}, structured part "
-                         f"{st_before['structured_rms_db']:.2f} dB); no effect is claimed")
+                         f"{st_before['structured_rms_db']:.2f} dB); no effect is claimed"
+                         + why + fails)
     if chosen is None:
         best = rows[0]["name"] if rows else "none"
         return "unexplained", ("no candidate explains the residual: no effect of the library "
                                "passes the plausibility and held-out gates (best by BIC: "
-                               f"{best}); the unexplained residual is shown")
+                               f"{best}){why}; the unexplained residual is shown" + fails)
     red = chosen_row["final_held_out"].get("reduction") or 0.0
     if _explains(st_after):
         return "explained", (f"{chosen.name} explains the residual: held-out error down "
                              f"{100 * red:.0f} %, remaining residual consistent with noise "
-                             f"(structured part {st_after['structured_rms_db']:.2f} dB)")
+                             f"(structured part {st_after['structured_rms_db']:.2f} dB)"
+                             + why + fails)
     return "partly explained", (f"{chosen.name} improves the fit (held-out error down "
                                 f"{100 * red:.0f} %) but structure remains (structured part "
                                 f"{st_after['structured_rms_db']:.2f} dB): no candidate fully "
-                                "explains the residual")
+                                "explains the residual" + why + fails)
