@@ -120,8 +120,7 @@ def fit_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--parameters", default=",".join(DEFAULT_PARAMETERS), metavar="P,P",
                    help="parameters fitted: kp,eta_p,kb,eta_b,eta_r,ms,pad_length "
                    f"(default {','.join(DEFAULT_PARAMETERS)})")
-    p.add_argument("--preset", default="site", help="spec whose other values are kept "
-                   "(Table 1 preset, default site; the data's sleeper spacing is used)")
+    base_args(p)
     p.add_argument("--row", type=index, metavar="N", default=None,
                    help="table: row N of the selection (0-based)")
     p.add_argument("--select", default=None, metavar="K=V,...",
@@ -146,21 +145,47 @@ def fit_args(p: argparse.ArgumentParser) -> None:
                    help="output folder (default railfem-output/fit)")
 
 
-def fit_run(args) -> int:
-    from ..jobs.fit import run_fit
-    from ..spec import preset
+def base_args(p: argparse.ArgumentParser) -> None:
+    """The base model's options, the same for fit and diagnose (railfem.identify.base)."""
+    p.add_argument("--preset", default="site", help="spec whose other values are kept "
+                   "(Table 1 preset, default site; the data's sleeper spacing is used)")
+    p.add_argument("--pad-length", type=non_negative, default=None, metavar="M",
+                   help="support footprint of the base model: a pad of this length (one "
+                        "spring row spread over it); default 0, point supports (fit: add "
+                        "pad_length to --parameters to profile it; diagnose compares pad "
+                        "lengths as the pad_length effect)")
 
+
+def base_from_args(args):
+    """The base TrackSpec of fit and diagnose from their options (before the data's spacing
+    is applied): railfem.identify.base.default_base."""
+    from ..identify.base import default_base
+
+    return default_base(args.model, preset_name=args.preset, pad_length=args.pad_length)
+
+
+def f_range_from_args(args):
+    """(low, high) Hz from --f-low / --f-high, None when neither is given."""
+    if args.f_low is None and args.f_high is None:
+        return None
+    return (args.f_low or 0.0, args.f_high or float("inf"))
+
+
+def fit_run(args) -> int:
+    from ..identify.base import describe_base
+    from ..jobs.fit import run_fit
+
+    base = base_from_args(args)
     use = parse_use(args.use) if args.use else None
     params = tuple(x.strip() for x in args.parameters.split(",") if x.strip())
     s = run_fit(args.data, args.out, model=args.model, use=use, parameters=params,
                 select=args.select, row=args.row, campaign=args.campaign,
-                scheduler=args.scheduler, base=preset(args.preset), n_starts=args.starts,
+                scheduler=args.scheduler, base=base, n_starts=args.starts,
                 workers=args.workers, seed=args.seed,
-                transfer_positions=args.transfer_positions,
-                f_range=(None if args.f_low is None and args.f_high is None else
-                         (args.f_low or 0.0, args.f_high or float("inf"))),
+                transfer_positions=args.transfer_positions, f_range=f_range_from_args(args),
                 profiles=() if args.no_profiles else ("kp", "kb"),
                 command=" ".join(sys.argv))
+    sys.stdout.write(f"base model: {describe_base(base, params)}\n")
     results = [s["result"]] if "result" in s else [r for r in s["rows"]]
     for r in results:
         for name, p in r["parameters"].items():
@@ -190,9 +215,13 @@ def diagnose_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--passby-method", choices=("energy", "slope"), default="energy",
                    help="pass-by: decay-rate estimator (default energy iteration)")
     recording_args(p, "pass-by: ")
-    p.add_argument("--f-low", type=positive, default=100.0, help="pass-by: lowest band (Hz)")
-    p.add_argument("--f-high", type=positive, default=5000.0,
-                   help="pass-by: highest band (Hz)")
+    p.add_argument("--f-low", type=positive, default=None, metavar="HZ",
+                   help="hammer data: lowest frequency (Hz) of the FRF points diagnosed "
+                        "(default: all); pass-by: lowest band (default 100)")
+    p.add_argument("--f-high", type=positive, default=None, metavar="HZ",
+                   help="hammer data: highest frequency (Hz) of the FRF points diagnosed "
+                        "(default: all); pass-by: highest band (default 5000)")
+    base_args(p)
     p.add_argument("--starts", type=count, default=4, metavar="N",
                    help="multi-start points of the base fit (default 4)")
     p.add_argument("--workers", type=count, default=1, metavar="N",
@@ -208,10 +237,13 @@ def diagnose_run(args) -> int:
                if args.effects else None)
     effects = "all" if effects == ["all"] else effects
     passby = dict(method=args.passby_method, channel=args.channel, speed=args.speed,
-                  axle_spacing=args.axle_spacing, f_low=args.f_low, f_high=args.f_high)
+                  axle_spacing=args.axle_spacing,
+                  f_low=100.0 if args.f_low is None else args.f_low,
+                  f_high=5000.0 if args.f_high is None else args.f_high)
     s = run_diagnose(args.data, args.out, model=args.model, select=args.select,
                      group=args.group, spacing=args.spacing, effects=effects,
                      n_starts=args.starts, workers=args.workers, passby=passby,
+                     f_range=f_range_from_args(args), base=base_from_args(args),
                      command=" ".join(sys.argv))
     for g in s["groups"]:
         sys.stdout.write(f"{g['name']}: {g['statement']}\n")

@@ -60,10 +60,13 @@ def groups_of(items, group: str | None):
 def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
                  group: str | None = "section,date", spacing: float = 0.6, effects=None,
                  n_starts: int = 4, workers: int = 1, cache=None, campaign: bool = True,
-                 passby: dict | None = None, command: str = "") -> dict:
+                 passby: dict | None = None, f_range=None, base=None,
+                 command: str = "") -> dict:
     """Diagnose DATA and write the report(s) to ``out_dir``; returns the run record.
     DATA: a hammer dataset folder or descriptor, a decay-rate table, or a list of pass-by
-    recordings (``passby``: options of passby_rows)."""
+    recordings (``passby``: options of passby_rows). f_range: (low, high) Hz of the FRF
+    points of hammer data diagnosed (pass-by bands: ``passby``). base: the base TrackSpec
+    (default railfem.identify.base.default_base, as ``railfem fit``)."""
     from ..io.data import data_kind, read_data
 
     t0 = time.perf_counter()
@@ -77,6 +80,10 @@ def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
         items = passby_rows(recs, **(passby or {}))
     else:
         data = paths[0]
+        if f_range is not None and kind == "table":
+            raise ValueError("--f-low/--f-high select the FRF points of hammer data (and the "
+                             "bands of pass-by recordings); a decay-rate table's bands are "
+                             "its rows'")
         kind, items = (read_data(data, select=select, campaign=True) if kind == "table"
                        else read_data(data))
     out = prepare_output_dir(out_dir, "diagnose")
@@ -98,7 +105,9 @@ def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
               if recs else str(data), "model": model,
               "kind": kind, "groups": []}
     opts = dict(model=model, n_starts=n_starts, workers=workers, cache=cache,
-                effects=effects)
+                effects=effects, base=base,
+                data_options={"f_range": tuple(f_range)} if f_range and kind == "hammer"
+                else None)
     for name, ms in jobs:
         sub = out / name if name else out
         log.info("diagnose: %s (%d record(s))", name or "hammer test", len(ms))
@@ -107,6 +116,7 @@ def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
         record["groups"].append({"name": name or "hammer", "records": len(ms),
                                  "verdict": d.verdict, "statement": d.statement,
                                  "chosen": d.chosen.name if d.chosen else None,
+                                 "base_model": d.base_model, "failures": d.failures,
                                  "files": files, "seconds": d.seconds})
     record["runtime_s"] = time.perf_counter() - t0
     write_text(out / "run.json", json.dumps(record, indent=2, default=_json) + "\n")
@@ -162,7 +172,7 @@ def summary(d) -> dict:
                               "held_out_positions_m": list(r.held_positions),
                               "held_out_bands_hz": list(r.held_bands),
                               "metadata": r.metadata.as_dict()} for r in d.data.records]},
-        "verdict": d.verdict, "statement": d.statement,
+        "verdict": d.verdict, "statement": d.statement, "base_model": d.base_model,
         "base": {"parameters": base.parameters(), "spec": spec_to_dict(base.spec()),
                  "cost": base.cost, "aicc": base.aicc, "bic": base.bic, "k": base.k,
                  "n": base.n, "residual_rms_db": {"fit": d.residual_before.rms(part="fit"),
@@ -170,6 +180,7 @@ def summary(d) -> dict:
                  "structure_test": d.structure_before, "scale_db": base.problem.scale},
         "candidates": d.candidates,
         "skipped": d.skipped,
+        "failures": d.failures,
         "chosen": None,
         "error_before": error_table(d.residual_before, bands),
         "error_after": None,
@@ -218,7 +229,8 @@ def _fmt(v, unit=""):
 
 def markdown(s: dict, figs: list[str], title: str) -> str:
     L = [f"# Diagnosis {title}".rstrip(), "", f"**{s['statement']}**", "",
-         f"Model: `{s['model']}`. Data: {s['data']['description']}.", ""]
+         f"Model: `{s['model']}`. Data: {s['data']['description']}.", "",
+         f"Base model: {s['base_model']}.", ""]
     b = s["base"]
     L += ["## Calibrated base model", "", "| parameter | value | 95 % interval | identifiable |",
           "|---|---|---|---|"]
@@ -250,6 +262,14 @@ def markdown(s: dict, figs: list[str], title: str) -> str:
     if s["skipped"]:
         L += ["", "Not tried: " + "; ".join(f"{k} ({v})" for k, v in s["skipped"].items())
               + "."]
+    late = [c for c in s["candidates"] if c.get("final_rejected")]
+    if late:
+        L += ["", "Passed the screening gates but not after the final refit: "
+              + "; ".join(f"{c['name']} ({c['final_rejected']})" for c in late) + "."]
+    if s["failures"]:
+        L += ["", "Failed (not judged; the run went on without them): "
+              + "; ".join(f"{f['candidate']} at {f['stage']} ({f['error']})"
+                          for f in s["failures"]) + "."]
     if s["chosen"]:
         c = s["chosen"]
         L += ["", f"## Chosen: {c['name']}", "", "| parameter | value | 95 % interval | "
