@@ -299,7 +299,11 @@ def fit(data, model: str = "wfe-discrete", *, parameters=DEFAULT_PARAMETERS, bas
                for q, v in groups.items()}
         top = max(rms.values())
         problem.scale = {q: max(s, 1e-6 * top, 1e-12) for q, s in rms.items()}
-        x_hat, _, _ = _solve(problem, x_hat, free)
+        if slow_profile is None:
+            x_hat, _, _ = _solve(problem, x_hat, free)
+        else:  # the estimate is the profile's minimum under the final scales
+            x_hat, slow_profile = reprofile(problem, slow_profile, free, slow_refine,
+                                            slow_tol)
     t = time.perf_counter()
     J = jacobian(problem, x_hat, slow, beam)
     r = problem.residual(x_hat)
@@ -311,11 +315,12 @@ def fit(data, model: str = "wfe-discrete", *, parameters=DEFAULT_PARAMETERS, bas
     todo = [n for n in profiles if n in names and n not in slow]
     if todo and profile_points > 1:
         prof = profile(problem, x_hat, analysis0, todo, profile_points, free, workers)
-    if slow_profile is not None:  # the profile's costs under the final residual scales
-        slow_profile["cost"] = [problem.cost(np.array(x)) for x in slow_profile["x"]]
+    if slow_profile is not None:  # refitted under the final scales (reprofile)
         prof[slow[0]] = _slow_profile_summary(slow_profile, float(r @ r),
                                               analysis0["residual_variance"], space, slow[0])
     analysis = uncertainty.analyse(space, x_hat, J, r, prof)
+    if slow_profile is not None:
+        interval_from_slow_profile(analysis, prof[slow[0]])
     seconds["profiles"] = time.perf_counter() - t
     seconds["total"] = time.perf_counter() - t_start
 
@@ -394,13 +399,53 @@ def _fit_with_slow(problem, starts, free, name, n_nodes, n_refine, tol, workers,
     for k in order[1:]:
         prof.at(nodes[k])
     prof.refine(n_refine, tol, at_edge=True, lo=lo, hi=hi)
-    done = prof.points
+    x_best, profile_ = _profile_dict(prof.points, space, i, name)
+    return x_best, runs, profile_
+
+
+def reprofile(problem, slow_profile: dict, free, n_refine, tol):
+    """The kernel-parameter profile refitted under the problem's (final) residual scales:
+    each point warm-started from its first-pass refit, then parabolic refinement of the
+    minimum; returns (x at the profile's minimum, the profile dict)."""
+    space = problem.box
+    name = slow_profile["name"]
+    i = space.names.index(name)
+    old = {float(v): np.array(x) for v, x in zip(slow_profile["vector"], slow_profile["x"])}
+
+    def evaluate(s):
+        x0 = (old.get(s) if s in old else prof.nearest(s)[1]).copy()
+        x0[i] = s
+        x, cost, _ = _solve(problem, x0, free)
+        log.debug("fit: %s = %.6g: cost %.6g (final scales)", name,
+                  space.parameters[i].decode(s), cost)
+        return cost, x
+
+    prof = SlowProfile(evaluate)
+    for v in sorted(old):
+        prof.at(v)
+    prof.refine(n_refine, tol, at_edge=True, lo=space.lower[i], hi=space.upper[i])
+    return _profile_dict(prof.points, space, i, name)
+
+
+def _profile_dict(done: dict, space, i, name):
+    """(x at the minimum, profile dict) of SlowProfile points {vector: (cost, x)}."""
     s_best = min(done, key=lambda v: done[v][0])
     vals = sorted(done)
-    profile_ = {"name": name, "vector": [float(v) for v in vals],
-                "value": [space.parameters[i].decode(v) for v in vals],
-                "cost": [done[v][0] for v in vals], "x": [done[v][1].tolist() for v in vals]}
-    return done[s_best][1], runs, profile_
+    return done[s_best][1], {
+        "name": name, "vector": [float(v) for v in vals],
+        "value": [space.parameters[i].decode(v) for v in vals],
+        "cost": [done[v][0] for v in vals], "x": [done[v][1].tolist() for v in vals]}
+
+
+def interval_from_slow_profile(analysis: dict, summary: dict) -> None:
+    """The kernel parameter's 95 % interval is its profile's (the refits at fixed values):
+    a forward-difference Jacobian column only approximates it; the linearised one is kept
+    as ``ci95_linearised``."""
+    for p in analysis["parameters"]:
+        if p["name"] == summary["name"]:
+            p["ci95_linearised"] = p["ci95"]
+            p["ci95"] = list(summary["ci95"])
+            p["interval"] = "profile"
 
 
 def prebuild_nodes(problem, nodes, i, x_base, workers):
