@@ -323,3 +323,148 @@ def couple_periodic(kernel: PeriodicKernel, stiffness) -> np.ndarray:
         reacted = Hm[inv, iu_rs, :, ia, ib, iu_sP]  # (rx, a, fx, b, o)
         out[i] = kernel.direct[i] - reacted.sum(axis=(1, 3)).transpose(2, 0, 1)
     return out
+
+
+class SupportUpdate:
+    """A uniform discrete track (``kernel``, re-centred on each response-force pair as
+    railfem.models does) with some supports' stiffness changed, by a low-rank (Woodbury)
+    update of the uniform coupling.
+
+    With W the springs' shares of the support stiffness K (``pattern`` per set times the
+    kernel's spring_weight), M0 = W^-1 / K + alpha_ss; diag(W) alpha_ss = V diag(lam) V^-1
+    is diagonalised once per frequency (the even and odd parts of the mirror-symmetric
+    layout separately), so M0^-1 = V diag(K h) V^-1 W, h = 1 / (1 + K lam), for any K.
+    Changing supports J to k_J changes the springs E of J: M = M0 + E D E^T,
+    D = diag(1 / (k_J w) - 1 / (K w)), a rank-(springs of J) update, and
+
+        u = u_0 + a (I + D C)^-1 D b,   C = E^T M0^-1 E,  a = alpha_rs M0^-1 E,
+                                        b = E^T M0^-1 alpha_sP
+
+    (u_0 the uniform track; exact, any number of supports and factors). Support J (counted
+    from the support at x = 0) of pair p sits at kernel support ``centre + J - shift[p]``,
+    shift[p] = round((x_r + x_P) / 2 spacing); a support outside a pair's window is left
+    out for that pair. Memory: two (n, n) complex arrays per frequency, n the springs."""
+
+    def __init__(self, kernel: DiscreteKernel, pattern, jr, jf, shift, n_rows: int = 1):
+        n_s, n_p, _, _ = kernel.shape
+        if np.any(np.asarray(kernel.spring_direction) != 2):
+            raise ValueError("SupportUpdate takes vertical springs only")
+        self.n_p, self.n_rows = n_p, int(n_rows)
+        self.n_sup = n_s // self.n_rows
+        self.centre = (self.n_sup - 1) // 2
+        self.shift = np.asarray(shift, dtype=int)
+        jr, jf = np.asarray(jr).ravel(), np.asarray(jf).ravel()
+        n = n_s * n_p
+        self.w = (np.asarray(pattern, dtype=float)[:, None]
+                  * kernel.spring_weight[None, :]).ravel()
+        pp = np.arange(n_p)
+        ss_flat = ((kernel.ss_index[:, None, :, None] * n_p + pp[None, :, None, None]) * n_p
+                   + pp[None, None, None, :]).reshape(n, n)
+        sP_flat = (kernel.sP_index[:, None, :] * n_p + pp[None, :, None]).reshape(n, -1)
+        n_out = kernel.rs.shape[2]
+        oo = np.arange(n_out)
+        rs_flat = ((kernel.rs_index[None, :, :, None] * n_out + oo[:, None, None, None]) * n_p
+                   + pp[None, None, None, :]).reshape(n_out, -1, n)
+        rP_flat = kernel.rP_index[None, :, :] * n_out + oo[:, None, None]
+        plan = _mirror_plan(kernel, np.ones((1, n_s)), ss_flat)
+        if plan is None:
+            plan = [dict(R=np.arange(n), JR=np.arange(n), sg=np.ones(n), m=np.zeros(n))]
+        self.parts = plan
+        nf = len(kernel.frequency)
+        self.lam = np.empty((nf, n), dtype=complex)
+        self.V = [np.empty((nf, len(p["R"]), len(p["R"])), dtype=complex) for p in plan]
+        self.Vw = [np.empty_like(v) for v in self.V]
+        self.GV = np.empty((nf, n_out, len(jr), n), dtype=complex)
+        self.VB = np.empty((nf, n, len(jr)), dtype=complex)
+        self.direct = np.empty((nf, n_out, len(jr)), dtype=complex)
+        for i in range(nf):
+            ssr = kernel.ss[i].ravel()
+            alpha = ssr[ss_flat]
+            B = kernel.sP[i].ravel()[sP_flat][:, jf]
+            G = kernel.rs[i].ravel()[rs_flat][:, jr, :]
+            self.direct[i] = kernel.rP[i].ravel()[rP_flat][:, jr, jf]
+            k0 = 0
+            for j, p in enumerate(plan):
+                R, JR, ms = p["R"], p["JR"], p["m"] * p["sg"]
+                wR = self.w[R]
+                lam, V = np.linalg.eig(wR[:, None] * (alpha[np.ix_(R, R)]
+                                                       + ms[None, :] * alpha[np.ix_(R, JR)]))
+                Vw = np.linalg.inv(V) * wR[None, :]
+                k1 = k0 + len(R)
+                self.lam[i, k0:k1], self.V[j][i], self.Vw[j][i] = lam, V, Vw
+                self.GV[i, :, :, k0:k1] = (G[:, :, R] + ms * G[:, :, JR]) @ V
+                self.VB[i, k0:k1] = Vw @ ((B[R] + p["sg"][:, None] * B[JR]) / 2)
+                k0 = k1
+        self._maps = []  # per part: position of each spring in R and in JR (-1: absent)
+        for p in plan:
+            pr, pj = np.full(n, -1), np.full(n, -1)
+            pr[p["R"]] = np.arange(len(p["R"]))
+            pj[p["JR"]] = np.arange(len(p["JR"]))
+            self._maps.append((pr, pj))
+
+    @property
+    def springs_per_support(self) -> int:
+        return self.n_rows * self.n_p
+
+    def _rows_cols(self, i: int, U: np.ndarray):
+        """Rows U of V (u, n) and columns U of V^-1 W (n, u), in the full spring space."""
+        rows, cols = [], []
+        for j, p in enumerate(self.parts):
+            pr, pj = self._maps[j]
+            a, b = pr[U], pj[U]
+            ms = np.where(b >= 0, (p["m"] * p["sg"])[np.maximum(b, 0)], 0.0)
+            sg = np.where(b >= 0, p["sg"][np.maximum(b, 0)], 0.0)
+            V, Vw = self.V[j][i], self.Vw[j][i]
+            rows.append(np.where(a[:, None] >= 0, V[np.maximum(a, 0)], 0.0)
+                        + ms[:, None] * V[np.maximum(b, 0)])
+            cols.append((np.where(a[None, :] >= 0, Vw[:, np.maximum(a, 0)], 0.0)
+                         + sg[None, :] * Vw[:, np.maximum(b, 0)]) / 2)
+        return np.concatenate(rows, axis=1), np.concatenate(cols, axis=0)
+
+    def _gather(self, indices):
+        """The kernel springs the supports ``indices`` take over all pairs (their union
+        U), per pair the position of each one's springs in U (pair, m springs) and
+        whether it is inside the window."""
+        s = self.centre + np.asarray(indices, dtype=int)[None, :] - self.shift[:, None]
+        ok = (s >= 0) & (s < self.n_sup)
+        k = self.springs_per_support
+        sp = (np.where(ok, s, 0)[:, :, None] * k + np.arange(k)).reshape(len(s), -1)
+        ok = np.repeat(ok, k, axis=1)
+        U, pos = np.unique(sp, return_inverse=True)
+        return U, pos.reshape(sp.shape), ok
+
+    def receptance(self, K, k_dev, indices, gradient: bool = False):
+        """(nf, n_out, n_pair) receptance with the supports ``indices`` at dynamic
+        stiffness k_dev (nf, m) and all others at K (nf,) (N/m per support); with
+        ``gradient`` also d receptance / d k_dev, (nf, n_out, n_pair, m)."""
+        K = np.asarray(K, dtype=complex)
+        k_dev = np.asarray(k_dev, dtype=complex).reshape(len(K), -1)
+        U, pos, ok = self._gather(indices)
+        m_sup, k = k_dev.shape[1], self.springs_per_support
+        wsp = self.w[:k]  # the shares of one support's springs (a uniform pattern)
+        nf, n_out, n_pair = self.direct.shape
+        u = np.empty((nf, n_out, n_pair), dtype=complex)
+        du = np.empty((nf, n_out, n_pair, m_sup), dtype=complex) if gradient else None
+        p = np.arange(n_pair)[:, None]
+        for i in range(nf):
+            Kh = K[i] / (1.0 + K[i] * self.lam[i])
+            u0 = self.direct[i] - np.einsum("opn,n,np->op", self.GV[i], Kh, self.VB[i])
+            Vu, Vc = self._rows_cols(i, U)
+            VK = Vu * Kh
+            MU = VK @ Vc
+            R = (self.GV[i] * Kh) @ Vc  # (o, pair, u)
+            Q = (VK @ self.VB[i]).T  # (pair, u)
+            C = MU[pos[:, :, None], pos[:, None, :]]
+            a = R[:, p, pos]  # (o, pair, m)
+            b = Q[p, pos]  # (pair, m)
+            D = ((1.0 / k_dev[i][:, None] - 1.0 / K[i]) / wsp[None, :]).ravel()[None] * ok
+            A = np.eye(D.shape[1]) + D[:, :, None] * C
+            y = np.linalg.solve(A, (D * b)[..., None])[..., 0]
+            u[i] = u0 + np.einsum("opm,pm->op", a, y)
+            if gradient:
+                At = np.swapaxes(A, -1, -2)
+                w = np.linalg.solve(At[None], a[..., None])[..., 0]
+                dD = w * (b - (C @ y[..., None])[..., 0])[None]  # du / dD (o, pair, m)
+                dk = -1.0 * ok / (k_dev[i][:, None] ** 2 * wsp[None, :]).ravel()[None]
+                du[i] = (dD * dk[None]).reshape(n_out, n_pair, m_sup, k).sum(axis=-1)
+        return (u, du) if gradient else u
