@@ -249,3 +249,21 @@ def test_kernel_parameter_estimate_is_the_minimum_of_its_final_profile():
     assert res.cost == pytest.approx(min(sp["cost"]), rel=1e-9)
     assert p["ci95"][0] <= p["value"] <= p["ci95"][1]
     assert p["ci95"] == res.profiles["eta_r"]["ci95"]
+
+
+def test_stiffness_profile_resolves_its_interval(clean_hammer):
+    """A well-determined kp (1 % noise): its interval is far narrower than the first grid
+    step, so the profile adds points until at least 5 lie within the 95 % threshold."""
+    from railfem.identify.fit import CHI2_95
+
+    Y0, pos = simulate("timoshenko-continuous")
+    res = fit(measurement(noisy(Y0, 0.01, 0), pos), "timoshenko-continuous", parameters=FAST,
+              base=rf.preset("site"), use=("point", "phase", "tdr"), n_starts=1, workers=1,
+              profiles=("kp",), profile_points=11)
+    prof = res.profiles["kp"]
+    dchi = np.array(prof["delta_chi2"])
+    assert np.sum(dchi < CHI2_95) >= 5, prof
+    lo, hi = prof["ci95"]
+    assert lo < res.parameter("kp")["value"] < hi and prof["open"] is None
+    step = np.diff(prof["vector"])
+    assert np.all(step > 0)  # sorted, no repeated value

@@ -58,6 +58,8 @@ FIT_BOUNDS = {
 }
 PROFILED = ("kp", "kb")
 CHI2_95 = 3.841  # chi-square(1) 95 % quantile: the profile-likelihood threshold
+PROFILE_MIN_INSIDE = 5  # profile points within the 95 % threshold a profile refines to
+PROFILE_ROUNDS = 3  # rounds of finer profile points at most
 SLOW_STEP = {"timoshenko": 1e-4, "wfe": 0.02}  # finite-difference step of a kernel parameter
 
 
@@ -479,7 +481,6 @@ def profile(problem, x_hat, analysis, names, n_points, free, workers) -> dict:
     c0 = problem.cost(x_hat)
     s2 = analysis["residual_variance"]
     tasks, where = [], []
-    grids = {}
     for n in names:
         i = space.names.index(n)
         p = analysis["parameters"][i]
@@ -487,20 +488,44 @@ def profile(problem, x_hat, analysis, names, n_points, free, workers) -> dict:
         span = max(2.5 * half if np.isfinite(half) else 0.0, 0.3)
         grid = np.linspace(max(x_hat[i] - span, space.lower[i]),
                            min(x_hat[i] + span, space.upper[i]), n_points)
-        grids[n] = grid
-        for v in grid:
-            tasks.append((x_hat, i, v, free))
-            where.append(n)
-    out = run_tasks(problem, _profile_point, tasks, workers, "profile point")
-    result = {}
-    for n in names:
-        i = space.names.index(n)
-        pts = [o for o, w in zip(out, where) if w == n]
-        vec = np.array([o["value"] for o in pts])
-        cost = np.array([o["cost"] for o in pts])
-        dchi = (cost - min(c0, cost.min())) / max(s2, 1e-300)
-        result[n] = _profile_summary(space, i, vec, cost, dchi)
-    return result
+        tasks += [(x_hat, i, v, free) for v in grid]
+        where += [n] * len(grid)
+    out = list(zip(where, run_tasks(problem, _profile_point, tasks, workers, "profile point")))
+
+    def curve(n):  # (values, costs, delta chi^2) of the points of n so far, sorted
+        pts = sorted((o["value"], o["cost"]) for w, o in out if w == n)
+        vec, cost = np.array([v for v, _ in pts]), np.array([c for _, c in pts])
+        return vec, cost, (cost - min(c0, cost.min())) / max(s2, 1e-300)
+
+    for _ in range(PROFILE_ROUNDS):  # finer points until the interval spans several
+        tasks, where = [], []
+        for n in names:
+            new = refine_points(*curve(n)[::2])
+            tasks += [(x_hat, space.names.index(n), v, free) for v in new]
+            where += [n] * len(new)
+        if not tasks:
+            break
+        out += zip(where, run_tasks(problem, _profile_point, tasks, workers, "profile point"))
+    return {n: _profile_summary(space, space.names.index(n), *curve(n)) for n in names}
+
+
+def refine_points(vec, dchi, min_inside: int = PROFILE_MIN_INSIDE, n_new: int = 6) -> list:
+    """New profile values when fewer than ``min_inside`` points lie within the 95 %
+    threshold: ``n_new`` evenly between the points that bracket the minimum (the last at
+    or above the threshold on each side, or the grid's end); [] when enough lie inside."""
+    inside = dchi < CHI2_95
+    if inside.sum() >= min_inside or len(vec) < 2:
+        return []
+    k = int(np.argmin(dchi))
+    below = np.flatnonzero(~inside[:k])
+    above = np.flatnonzero(~inside[k + 1:])
+    a = int(below[-1]) if below.size else 0
+    b = k + 1 + int(above[0]) if above.size else len(vec) - 1
+    if vec[b] <= vec[a]:
+        return []
+    new = np.linspace(vec[a], vec[b], n_new + 2)[1:-1]
+    tol = 1e-9 * max(1.0, float(np.abs(vec).max()))
+    return [float(v) for v in new if np.min(np.abs(vec - v)) > tol]
 
 
 def _profile_summary(space, i, vec, cost, dchi) -> dict:
