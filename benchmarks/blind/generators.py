@@ -4,11 +4,20 @@ never told which effect (if any) made the data.
 
 Every generator returns a list of HammerMeasurement (or DecayRateMeasurement) objects; the
 truth is returned separately for the test to compare with.
+
+``form``: "own" (default) makes the data with railfem's default configuration, the one the
+diagnosis estimates with; "cross" with a model that differs from it in model form, as an
+independent implementation would (CROSS: a straight-sided P2 mesh of another size, the
+published node springs in another count, another pad discretisation), so the estimator
+never meets its own configuration.
 """
 from __future__ import annotations
 
 import math
+import os
+import tempfile
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 
@@ -24,6 +33,39 @@ MODEL = "timoshenko-discrete"
 NOISE = 0.05
 
 
+FORMS = ("own", "cross")
+#: the cross-model configuration: straight-sided P2 section mesh of CROSS["h"] m (the
+#: estimator's shipped mesh is curved, 10 mm), CROSS["springs"] springs per support row at
+#: the foot nodes (the published rule; the estimator: 4 midpoint springs), a pad of finite
+#: length in CROSS["rows"] rows (the estimator's pad_length effect: one row)
+CROSS = {"h": 0.0075, "curved": False, "foot_rule": "nodes", "springs": 8, "rows": 4}
+
+
+def cross_mesh_file(h: float = CROSS["h"], curved: bool = CROSS["curved"]) -> str:
+    """Path of the cross-model section mesh (written once to a per-user temporary folder)."""
+    from railfem.rail import meshing
+
+    tag = "curved" if curved else "straight"
+    folder = Path(os.environ.get("RAILFEM_BLIND_DIR", tempfile.gettempdir())) / \
+        f"railfem-blind-{os.getuid() if hasattr(os, 'getuid') else 0}"
+    path = folder / f"60E1_h{h * 1e3:g}mm_{tag}.npz"
+    if not path.exists():
+        folder.mkdir(parents=True, exist_ok=True)
+        meshing.save_mesh(meshing.get_mesh("60E1", h, curved=curved), path)
+    return str(path)
+
+
+def cross_spec(spec):
+    """``spec`` in the cross-model form (CROSS): another mesh, spring rule and count, and
+    (for a pad of finite length) rows."""
+    rail = replace(spec.rail, mesh_file=cross_mesh_file())
+    num = replace(spec.numerics, foot_rule=CROSS["foot_rule"], n_foot_springs=CROSS["springs"])
+    out = spec.replace(rail=rail, numerics=num)
+    if spec.pad_length > 0 and spec.kind.is_discrete:
+        out = out.replace(n_rows=CROSS["rows"])
+    return out
+
+
 def frequencies(n_per_octave: int = 9, low: float = 50.0, high: float = 5000.0):
     if n_per_octave == 9:
         return iec61260.ninth_octave_grid(low, high)
@@ -35,10 +77,13 @@ def truth_spec(model=MODEL, **changes):
     return rf.preset("site", model=model, pad_length=0.0).replace(**{**TRUTH, **changes})
 
 
-def clean(spec, f, *, outputs=("head",), sensor_shift=0.0, hammer_offset=0.0):
-    """Mobilities (nf, n_out, n_pos) of an EN 15461 test on spec: the sensor at mid-span
-    (+ sensor_shift), positions of the standard, the point 20 mm away, every other hammer
-    position moved by hammer_offset."""
+def clean(spec, f, *, outputs=("head",), sensor_shift=0.0, hammer_offset=0.0, form="own"):
+    """Mobilities (nf, n_out, n_pos) of an EN 15461 test on spec (in ``form``: FORMS): the
+    sensor at mid-span (+ sensor_shift), positions of the standard, the point 20 mm away,
+    every other hammer position moved by hammer_offset."""
+    if form not in FORMS:
+        raise ValueError(f"form {form!r}: give one of {FORMS}")
+    spec = cross_spec(spec) if form == "cross" else spec
     pos = en15461.hammer_positions(spec.spacing).astype(float)
     pos[0] = models.POINT_OFFSET
     xs = spec.spacing / 2 + sensor_shift
@@ -94,6 +139,7 @@ CASES = {
     "temperature": {"a": 0.03},
     "preload": {"n_p": 0.8, "n_b": 0.5},
     "rail_stiffness": {"E": 1.75e11},  # outside the library: a softer rail
+    "section_geometry": {"foot_thickness": 0.0025},  # m; a WFE model's case (a 60E1 foot)
     # every support's pad and ballast stiffness scattered (lognormal, SD of ln)
     "random_support": {"sd_kp": 0.15, "sd_kb": 0.3},
 }
@@ -150,26 +196,32 @@ def effect_spec(case: str, seed: int = 0, model=MODEL):
             for i, (kp, kb) in random_factors(seed, p).items()))
     if case == "rail_stiffness":
         return spec.replace(rail=replace(spec.rail, E=p["E"]))
+    if case == "section_geometry":  # the modified outline, meshed by Gmsh
+        from railfem.rail.profiles import modified_name
+        prof = modified_name(foot=p["foot_thickness"] * 1e3)
+        return spec.replace(rail=replace(spec.rail, profile=prof))
     return None
 
 
-def dataset(case: str, seed: int, f=None, outputs=("head",), model=MODEL):
-    """A list of measurements with ``case`` switched on (CASES), noise seeded by ``seed``."""
+def dataset(case: str, seed: int, f=None, outputs=("head",), model=MODEL, form="own",
+            level=NOISE):
+    """A list of measurements with ``case`` switched on (CASES), noise (RMS ``level``)
+    seeded by ``seed``, made by the model in ``form`` (FORMS: 'own' or 'cross')."""
     f = frequencies() if f is None else f
     p = CASES[case]
     if case in ("temperature", "preload"):
-        return _campaign(case, p, truth_spec(model), f, seed, outputs)
+        return _campaign(case, p, truth_spec(model), f, seed, outputs, form)
     spec = effect_spec(case, seed, model) or truth_spec(model)
     kw = {}
     if case == "sensor_position":
         kw["sensor_shift"] = p["sensor_shift"]
     elif case == "hammer_position":
         kw["hammer_offset"] = p["hammer_offset"]
-    Y, pos = clean(spec, f, outputs=outputs, **kw)
+    Y, pos = clean(spec, f, outputs=outputs, form=form, **kw)
     if case == "sensor_resonance":
         Y = Y * mount(f, p["fs"], p["eta_s"])[:, None, None]
     floor = p["floor_db"] if case == "noise_floor" else None
-    return [measurement(noisy(Y, seed, floor_db=floor), pos, f, outputs)]
+    return [measurement(noisy(Y, seed, level=level, floor_db=floor), pos, f, outputs)]
 
 
 #: pass-by generator: train speeds (m/s), sample rate, signal noise, wheel detector
@@ -210,13 +262,13 @@ def passby_recordings(case: str, seed: int, model=MODEL, speeds=PASSBY_SPEEDS):
     return out
 
 
-def _campaign(case, p, spec, f, seed, outputs):
+def _campaign(case, p, spec, f, seed, outputs, form="own"):
     out = []
     if case == "temperature":
         temps = (0.0, 15.0, 30.0)
         for i, T in enumerate(temps):
             s = spec.replace(kp=spec.support.kp * math.exp(-p["a"] * (T - np.mean(temps))))
-            Y, pos = clean(s, f, outputs=outputs)
+            Y, pos = clean(s, f, outputs=outputs, form=form)
             out.append(measurement(noisy(Y, seed * 7 + i), pos, f, outputs,
                                    Metadata(date=f"2020-0{i + 1}-01", temperature_c=T)))
     else:
@@ -226,7 +278,7 @@ def _campaign(case, p, spec, f, seed, outputs):
             fac = lambda n: ((1 + P / 20) / (1 + ref / 20)) ** n  # noqa: E731
             s = spec.replace(kp=spec.support.kp * fac(p["n_p"]),
                              kb=spec.support.kb * fac(p["n_b"]))
-            Y, pos = clean(s, f, outputs=outputs)
+            Y, pos = clean(s, f, outputs=outputs, form=form)
             out.append(measurement(noisy(Y, seed * 7 + i), pos, f, outputs,
                                    Metadata(date=f"2020-0{i + 1}-01",
                                             notes={"static_load_kn": P})))

@@ -8,7 +8,10 @@ bounds of railfem.identify.fit.FIT_BOUNDS) and each effect's continuous paramete
 of every record (railfem.identify.problem.used_rows), divided by a fixed scale per quantity
 (``noise_scale``: the white-noise level of the base fit's residual from the median
 absolute deviation of its first differences, at least 0.1 dB), so every model is scored on
-the same footing; random effects add their prior rows.
+the same footing; random effects add their prior rows. The scale carries the model-form
+discrepancy of the base at its fitted parameters (railfem.identify.discrepancy.ensemble;
+an entry's scale is sqrt(noise^2 + s_d^2) of its band), so bands the model cannot predict
+weigh less and the gates judge against noise plus discrepancy.
 """
 from __future__ import annotations
 
@@ -18,6 +21,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from railfem.identify import discrepancy as model_form
 from railfem.identify import problem as core
 from railfem.identify.fit import FIT_BOUNDS
 from railfem.identify.problem import Box, Prediction, table
@@ -29,7 +33,10 @@ log = logging.getLogger(__name__)
 BASE = ("kp", "eta_p", "kb", "eta_b")
 MIN_SCALE = 0.1  # dB
 
-__all__ = ["BASE", "Box", "EffectModel", "MIN_SCALE", "Prediction", "Problem",
+#: the model-form discrepancy by default: 'ensemble' (railfem.identify.discrepancy) or None
+DISCREPANCY = "ensemble"
+
+__all__ = ["BASE", "Box", "DISCREPANCY", "EffectModel", "MIN_SCALE", "Prediction", "Problem",
            "base_parameters", "noise_scale", "regrid", "table"]
 
 
@@ -198,9 +205,22 @@ class EffectModel:
         return a0, [(s, {n: t[key] for n, t in tan.items()}) for key, s in sorted(sd.items())]
 
 
-def noise_scale(problem: core.Problem, x) -> dict:
+def noise_scale(problem: core.Problem, x, discrepancy=None) -> core.Scale:
     """Per quantity, the white-noise level of the residual: 1.4826 MAD of its first
-    differences over frequency or band / sqrt 2, at least MIN_SCALE dB."""
+    differences over frequency or band / sqrt 2, at least MIN_SCALE dB; as a
+    railfem.identify.problem.Scale carrying ``discrepancy``: None (none), 'ensemble' (the
+    base's variants at x, railfem.identify.discrepancy.ensemble) or a Discrepancy."""
+    if isinstance(discrepancy, str):
+        if discrepancy != "ensemble":
+            raise ValueError(f"discrepancy {discrepancy!r}: give 'ensemble', None or a "
+                             "railfem.identify.discrepancy.Discrepancy")
+        m = problem.model
+        discrepancy = model_form.ensemble(problem.records, m.evaluator.receptance,
+                                          m.base_spec(np.asarray(x, dtype=float)))
+    return core.Scale(_noise(problem, x), discrepancy)
+
+
+def _noise(problem: core.Problem, x) -> dict:
     diffs: dict = {}
     pred = problem.predict(x)
     for r in problem.records:

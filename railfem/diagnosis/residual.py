@@ -30,6 +30,17 @@ correlation test over their expected SD sqrt(sigma_w^2 + v)); where repeats exis
 structured RMS is sqrt(mean max(0, r^2 - s_b^2)) instead: what exceeds the repeat
 scatter band by band (the repeats measure the noise directly; band-to-band differences of
 a decay rate are not noise).
+
+**Model-form discrepancy** (``Block.discrepancy``: s_d^2 per entry from
+railfem.identify.discrepancy, how far the model's own discretisation choices move it): a
+smooth residual is expected then, so correlation alone does not make structure. Where the
+correlation test rejects white noise, the residual's size is judged against noise plus
+discrepancy: per cell c (record, quantity, sensor, band; positions pooled) the mean square
+excess e_c = mean(r^2 - v) - sigma_w^2 is compared with the discrepancy variance D_c,
+R = sum e_c / sum D_c, and k R against chi^2(k) with k = (sum D_c)^2 / sum D_c^2
+(Satterthwaite: each cell's discrepancy one Gaussian draw, the conservative reading of a
+discrepancy shared by the positions and frequencies of a band). Not rejected: verdict
+'consistent' (noise plus discrepancy); rejected: 'structure'.
 """
 from __future__ import annotations
 
@@ -58,15 +69,17 @@ class Block:
     positions: np.ndarray
     values: np.ndarray
     variance: np.ndarray | None = None  # dB^2 the model expects as extra noise per entry
+    discrepancy: np.ndarray | None = None  # dB^2 of model-form discrepancy per entry
 
     def rms(self) -> float:
         v = self.values[np.isfinite(self.values)]
         return float(np.sqrt(np.mean(v ** 2))) if v.size else float("nan")
 
 
-def blocks(record, part: str, prediction) -> list[Block]:
+def blocks(record, part: str, prediction, discrepancy=None) -> list[Block]:
     """The residual blocks of one record's part ('fit' or 'held') for a model prediction
-    (railfem.identify.problem.Prediction)."""
+    (railfem.identify.problem.Prediction); ``discrepancy``: a
+    railfem.identify.discrepancy.Discrepancy whose variance each block carries."""
     target = record.fit if part == "fit" else record.held
     if target is None:
         return []
@@ -84,9 +97,14 @@ def blocks(record, part: str, prediction) -> list[Block]:
                 target.bands.nominal
         var = (prediction.variance[:, :, target.transfer_index]
                if q == "transfer" and prediction.variance is not None else None)
+        d2 = None
+        if discrepancy is not None and q in discrepancy.variance:
+            d2 = np.broadcast_to(discrepancy.at(q, np.asarray(x, dtype=float))[:, None, None],
+                                 vals.shape).copy()
         out.append(Block(record=record.name, part=part, quantity=q, axis=axis,
                          x=np.asarray(x, dtype=float), outputs=tuple(target.outputs),
-                         positions=np.asarray(pos, dtype=float), values=vals, variance=var))
+                         positions=np.asarray(pos, dtype=float), values=vals, variance=var,
+                         discrepancy=d2))
     return out
 
 
@@ -130,12 +148,16 @@ class Residual:
         return rows
 
 
-def make_residual(data, predictions: dict, parts=("fit", "held")) -> Residual:
-    """Residual of the model predictions {record name: Prediction} on ``data``."""
+def make_residual(data, predictions: dict, parts=("fit", "held"), *,
+                  discrepancy=None) -> Residual:
+    """Residual of the model predictions {record name: Prediction} on ``data``;
+    ``discrepancy``: a Discrepancy, or a railfem.identify.problem.Scale that carries one
+    (its blocks then carry the model-form variance the structure test allows for)."""
+    discrepancy = getattr(discrepancy, "discrepancy", discrepancy)
     out = []
     for r in data.records:
         for part in parts:
-            out += blocks(r, part, predictions[r.name])
+            out += blocks(r, part, predictions[r.name], discrepancy)
     return Residual(blocks=tuple(out))
 
 
@@ -194,8 +216,9 @@ def _structured(excess: np.ndarray, sigma_w: float) -> float:
 def structure_test(res: Residual, *, part="fit", alpha: float = ALPHA,
                    n_parameters: int = 0, repeats=None) -> dict:
     """Noise or structure (see the module docstring). repeats: {band_hz: scatter_db} from
-    repeat_scatter, or None. Returns a JSON-ready dict with 'verdict' ('noise' or
-    'structure'), p-values, sigma_w and the structured RMS (dB)."""
+    repeat_scatter, or None. Returns a JSON-ready dict with 'verdict' ('noise', 'consistent'
+    (noise plus the blocks' model-form discrepancy) or 'structure'), p-values, sigma_w and
+    the structured RMS (dB)."""
     used = [b for b in res.select(part=part) if b.quantity != "phase"]
     # the white part first: 1.4826 MAD of the differences over frequency (robust: sharp
     # local misfits and the few entries a noise floor scatters do not count)
@@ -245,7 +268,48 @@ def structure_test(res: Residual, *, part="fit", alpha: float = ALPHA,
             out["structured_from"] = "repeat scatter"
     out["p"] = p_all
     out["verdict"] = "structure" if p_all < alpha else "noise"
+    disc = discrepancy_test(used, sigma_w)
+    if disc is not None:
+        out["discrepancy"] = disc
+        out["structured_beyond_discrepancy_db"] = disc["beyond_db"]
+        if out["verdict"] == "structure" and disc["p"] >= alpha:
+            out["verdict"] = "consistent"
     return out
+
+
+def discrepancy_test(used, sigma_w: float) -> dict | None:
+    """The residual's size against noise plus model-form discrepancy (module docstring):
+    {R, k, p, the discrepancy's RMS and what exceeds it (dB)}; None without discrepancy."""
+    cells: dict = {}
+    for b in used:
+        if b.discrepancy is None:
+            continue
+        var = np.zeros_like(b.values) if b.variance is None else b.variance
+        k = np.rint(10 * np.log10(np.maximum(b.x, 1e-12) / 1000.0)).astype(int)
+        for o in range(b.values.shape[1]):
+            for kb in np.unique(k):
+                m = k == kb
+                r, v, d2 = b.values[m, o], var[m, o], b.discrepancy[m, o]
+                ok = np.isfinite(r)
+                if ok.any():
+                    key = (b.record, b.quantity, o, int(kb))
+                    e, d, n = cells.get(key, (0.0, 0.0, 0))
+                    cells[key] = (e + float(np.sum(r[ok] ** 2 - v[ok])),
+                                  d + float(np.sum(d2[ok])), n + int(ok.sum()))
+    if not cells:
+        return None
+    e = np.array([c[0] / c[2] for c in cells.values()]) - sigma_w ** 2
+    d = np.array([c[1] / c[2] for c in cells.values()])
+    n = np.array([c[2] for c in cells.values()], dtype=float)
+    if not d.sum() > 0:
+        return None
+    ratio = float(e.sum() / d.sum())
+    k = float(d.sum() ** 2 / (d ** 2).sum())
+    p = float(stats.chi2.sf(max(ratio, 0.0) * k, k))
+    mean_d = float(n @ d / n.sum())
+    beyond = float(np.sqrt(max(0.0, float(n @ (e - d)) / n.sum())))
+    return {"ratio": ratio, "k": k, "p": p, "cells": len(cells),
+            "discrepancy_rms_db": float(np.sqrt(mean_d)), "beyond_db": beyond}
 
 
 def repeat_scatter(data, part="fit") -> dict:

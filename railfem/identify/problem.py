@@ -15,7 +15,9 @@ diagnosis (railfem.diagnosis: several records, base track plus candidate effects
   frequency weights applied, railfem.identify.data.residuals: the fit) or ``used_rows``
   (unweighted, the used entries, a model entry that is not finite counts as FAR dB: the
   diagnosis, whose noise scale is per quantity);
-* ``scale``: the residual scale per quantity (dB), 1 where not given.
+* ``scale``: the residual scale per quantity (dB), 1 where not given; a ``Scale`` also
+  carries a model-form discrepancy (railfem.identify.discrepancy): each entry is then
+  divided by sqrt(scale^2 + s_d^2(its band)), so bands the model cannot predict weigh less.
 
 The kernel parameter (the rail loss factor) is not differentiated through: it is profiled
 (``SlowProfile``: refits at fixed values, parabolic steps through the best point).
@@ -141,6 +143,73 @@ def cluster_labels(target) -> dict:
     return out
 
 
+def row_axis(target, q: str, rows) -> np.ndarray:
+    """The index on the first axis (frequency; band for the decay rate) of every entry of
+    ``rows(target, ...)[q]`` (used_rows or weighted_rows)."""
+    if rows is used_rows:
+        return np.nonzero(used_entries(target, q))[0]
+    if q == "tdr":
+        return np.nonzero(np.isfinite(target.tdr) & (target.band_weight[:, None] > 0))[0]
+    w = target.frf_weight > 0
+    shape = target.transfer.shape if q == "transfer" else target.point.shape
+    idx = np.broadcast_to(np.arange(shape[0]).reshape((-1,) + (1,) * (len(shape) - 1)), shape)
+    return idx[w].ravel()
+
+
+def row_x(target, q: str, rows) -> np.ndarray:
+    """Frequency (Hz; the band centre for the decay rate) of every entry of a row array."""
+    axis = target.bands.nominal if q == "tdr" else target.frequency
+    return np.asarray(axis, dtype=float)[row_axis(target, q, rows)]
+
+
+class Scale(dict):
+    """Residual scales per quantity (dB: the noise), with an optional model-form
+    ``discrepancy`` (railfem.identify.discrepancy.Discrepancy): an entry's scale is then
+    sqrt(noise^2 + s_d^2(band of the entry)). A plain dict of scales is a Scale without
+    discrepancy."""
+
+    def __init__(self, noise=(), discrepancy=None):
+        super().__init__(noise)
+        self.discrepancy = discrepancy
+        self._entries: dict = {}
+
+    def entries(self, target, q: str, rows):
+        """The scale of every entry of ``rows(target, ...)[q]`` (an array), or the
+        quantity's scale (a number) without discrepancy."""
+        s = self.get(q, 1.0)
+        if self.discrepancy is None:
+            return s
+        key = (id(target), q, rows)
+        if key not in self._entries:
+            x = row_x(target, q, rows)
+            self._entries[key] = (target, np.sqrt(s ** 2 + self.discrepancy.at(q, x)))
+        return self._entries[key][1]
+
+    def table(self, target, q: str, shape) -> np.ndarray | float:
+        """The scale on the axes of a residual_table array of ``shape`` (first axis
+        frequency, or band for the decay rate)."""
+        s = self.get(q, 1.0)
+        if self.discrepancy is None:
+            return s
+        axis = target.bands.nominal if q == "tdr" else target.frequency
+        d2 = self.discrepancy.at(q, np.asarray(axis, dtype=float))
+        return np.sqrt(s ** 2 + d2).reshape((-1,) + (1,) * (len(shape) - 1))
+
+
+def entry_scale(scale, target, q: str, rows):
+    """Per-entry scale of a row array under ``scale`` (a Scale or a plain dict)."""
+    if isinstance(scale, Scale):
+        return scale.entries(target, q, rows)
+    return scale.get(q, 1.0)
+
+
+def table_scale(scale, target, q: str, shape):
+    """The scale on a residual_table array's axes under ``scale`` (a Scale or a dict)."""
+    if isinstance(scale, Scale):
+        return scale.table(target, q, shape)
+    return scale.get(q, 1.0)
+
+
 # ------------------------------------------------------------------ the problem
 
 
@@ -186,9 +255,17 @@ class Problem:
         return out
 
     def residual(self, x, part="fit", prediction=None) -> np.ndarray:
-        """Scaled residuals of ``part``; on the fitted part followed by the model's prior
-        entries (railfem.diagnosis: random effects shrunk towards their mean)."""
-        r = [v / self.scale.get(q, 1.0) for _, q, v in self.groups(x, part, prediction)]
+        """Scaled residuals of ``part`` (each entry over its scale: Scale); on the fitted
+        part followed by the model's prior entries (railfem.diagnosis: random effects
+        shrunk towards their mean)."""
+        pred = self.predict(x) if prediction is None else prediction
+        r = []
+        for rec in self.records:
+            t = rec.fit if part == "fit" else rec.held
+            if t is None:
+                continue
+            for q, v in self.rows(t, pred[rec.name]).items():
+                r.append(v / entry_scale(self.scale, t, q, self.rows))
         if part == "fit":
             r += self.prior(x)
         return np.concatenate(r)

@@ -1,0 +1,148 @@
+"""Model-form discrepancy (railfem.identify.discrepancy): the ensemble over the model's own
+discretisation choices, the residual scale it enters, the structure test against noise plus
+discrepancy, and the diagnosis of data from another model form (benchmarks.blind
+generators, form='cross')."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from benchmarks.blind import generators as g
+from railfem.diagnosis import residual as R
+from railfem.diagnosis.data import prepare
+from railfem.diagnosis.evaluate import Evaluator
+from railfem.identify import discrepancy as D
+from railfem.identify.problem import Scale, used_rows
+from railfem.standards import iec61260
+
+SMALL_F = g.frequencies(low=50.0, high=4000.0)[::2]
+MODEL = "timoshenko-discrete"
+
+
+@pytest.fixture(scope="module")
+def small_data():
+    return prepare(g.dataset("none", 0, f=SMALL_F))
+
+
+# ------------------------------------------------------------------ the ensemble
+
+
+def test_ensemble_is_zero_when_every_variant_is_the_configuration(small_data):
+    spec = g.truth_spec(MODEL)
+    d = D.ensemble(small_data.records, Evaluator().receptance, spec, ("same", "same"))
+    assert d.variants == ("same", "same")
+    assert set(d.variance) >= {"point", "transfer"}
+    for s2 in d.variance.values():
+        assert np.all(s2 == 0.0)
+
+
+def test_ensemble_grows_with_the_spread_of_the_variants(small_data):
+    """One variant that moves the prediction (the beam's section constants from the
+    catalogue instead of the mesh): a variance > 0; paired with the configuration itself
+    the mean square over the two variants is exactly half of it."""
+    spec, ev = g.truth_spec(MODEL), Evaluator()
+    one = D.ensemble(small_data.records, ev.receptance, spec, ("constants: catalogue",))
+    half = D.ensemble(small_data.records, ev.receptance, spec, ("same", "constants: catalogue"))
+    assert one.variance["point"].max() > 1e-4
+    for q in one.variance:
+        np.testing.assert_allclose(half.variance[q], 0.5 * one.variance[q], rtol=1e-9,
+                                   atol=1e-15)
+
+
+def test_band_variance_scales_with_the_square_of_the_difference():
+    x = np.array([100.0, 110.0, 1000.0, 1100.0])
+    d = np.array([1.0, -1.0, 2.0, 0.0])
+    idx, v = D.band_variance([("point", x, d)])
+    assert list(idx) == [-10, 0]  # the bands of 100 Hz and 1 kHz
+    np.testing.assert_allclose(v["point"], [1.0, 2.0])  # (1 + 1)/2, (4 + 0)/2
+    _, v3 = D.band_variance([("point", x, 3 * d)])
+    np.testing.assert_allclose(v3["point"], 9 * v["point"])
+
+
+def test_discrepancy_at_reads_the_band_of_each_frequency():
+    d = D.Discrepancy(index=np.array([0, 1, 2]), variance={"point": np.array([1.0, 4.0, 9.0])})
+    # 1 kHz is band 0; 1.26 kHz band 1; 1.12 kHz (band edge 1.122) still band 0
+    np.testing.assert_allclose(d.at("point", [1000.0, 1259.0, 1120.0, 1585.0, 20000.0]),
+                               [1.0, 4.0, 1.0, 9.0, 9.0])
+    np.testing.assert_allclose(d.at("transfer", [1000.0]), [0.0])
+    np.testing.assert_allclose(d.scaled(2.0).at("point", [1000.0]), [2.0])
+    with pytest.raises(ValueError, match="variance"):
+        D.Discrepancy(index=np.array([0]), variance={"point": np.array([-1.0])})
+
+
+def test_scale_divides_each_entry_by_noise_plus_discrepancy(small_data):
+    """An entry's scale is sqrt(noise^2 + s_d^2 of its band: the nearest band estimated);
+    without discrepancy the quantity's noise scale as before."""
+    t = small_data.records[0].fit
+    disc = D.Discrepancy(index=np.array([-10, 0]), variance={"point": np.array([0.75, 0.0])})
+    e = Scale({"point": 0.5}, disc).entries(t, "point", used_rows)
+    used = (t.frf_weight[:, None] > 0) & np.isfinite(t.point)
+    f = np.broadcast_to(t.frequency[:, None], used.shape)[used]
+    k = np.rint(10 * np.log10(f / 1000.0))
+    assert (k <= -6).any() and (k > -6).any()
+    np.testing.assert_allclose(e, np.where(k <= -6, 1.0, 0.5))
+    assert Scale({"point": 0.5}).entries(t, "point", used_rows) == 0.5
+
+
+# ------------------------------------------------------------------ the structure test
+
+
+def _smooth(f, rng, rms):
+    """A smooth function of log frequency (a few slow sinusoids) with RMS ``rms``."""
+    u = np.log(f / f[0]) / np.log(f[-1] / f[0])
+    y = sum(rng.standard_normal() * np.cos(np.pi * k * u + rng.uniform(0, 2 * np.pi))
+            for k in range(1, 5))
+    return rms * y / np.sqrt(np.mean(y ** 2))
+
+
+def _blocks(seed, s_d, factor, n_pos=12, noise_db=0.43):
+    f = g.frequencies()
+    rng = np.random.default_rng(seed)
+    vals = np.stack([_smooth(f, rng, factor * s_d) for _ in range(n_pos)], axis=1)[:, None, :]
+    vals = vals + noise_db * rng.standard_normal(vals.shape)
+    disc = D.Discrepancy(index=np.arange(-13, 8), variance={"transfer": np.full(21, s_d ** 2)})
+    d2 = np.broadcast_to(disc.at("transfer", f)[:, None, None], vals.shape).copy()
+    return R.Block(record="r", part="fit", quantity="transfer", axis="frequency", x=f,
+                   outputs=("head",), positions=np.linspace(0.1, 10, n_pos), values=vals,
+                   discrepancy=d2)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_structure_test_judges_against_noise_plus_discrepancy(seed):
+    """Noise (0.43 dB: 5 %) plus a smooth discrepancy of the size estimated (1.5 dB RMS):
+    'consistent'; the same residual judged against noise alone: 'structure'; a
+    discrepancy three times the estimate: 'structure'."""
+    ok = R.structure_test(R.Residual(blocks=(_blocks(seed, 1.5, 1.0),)))
+    assert ok["verdict"] == "consistent", ok["discrepancy"]
+    assert ok["discrepancy"]["ratio"] == pytest.approx(1.0, abs=0.35)
+    blk = _blocks(seed, 1.5, 1.0)
+    plain = R.Block(**{**blk.__dict__, "discrepancy": None})
+    assert R.structure_test(R.Residual(blocks=(plain,)))["verdict"] == "structure"
+    big = R.structure_test(R.Residual(blocks=(_blocks(seed, 1.5, 3.0),)))
+    assert big["verdict"] == "structure", big["discrepancy"]
+    assert big["structured_beyond_discrepancy_db"] > 3.0
+
+
+def test_white_noise_stays_noise_with_a_discrepancy():
+    f = g.frequencies()
+    rng = np.random.default_rng(1)
+    vals = 0.43 * rng.standard_normal((len(f), 1, 12))
+    blk = R.Block(record="r", part="fit", quantity="transfer", axis="frequency", x=f,
+                  outputs=("head",), positions=np.linspace(0.1, 10, 12), values=vals,
+                  discrepancy=np.ones_like(vals))
+    assert R.structure_test(R.Residual(blocks=(blk,)))["verdict"] == "noise"
+
+
+# ------------------------------------------------------------------ cross-model data
+
+
+def test_cross_form_is_not_the_estimator_configuration():
+    spec = g.truth_spec("wfe-discrete")
+    c = g.cross_spec(spec)
+    assert c.rail.mesh_file is not None and c.numerics.foot_rule == "nodes"
+    assert c.numerics.n_foot_springs == 8 != spec.numerics.n_foot_springs
+    from railfem.rail import meshing
+    assert not meshing.load_mesh(c.rail.mesh_file).curved
+    assert g.cross_spec(spec.replace(pad_length=0.16)).n_rows == g.CROSS["rows"]
+    with pytest.raises(ValueError, match="form"):
+        g.dataset("none", 0, f=SMALL_F, form="other")
