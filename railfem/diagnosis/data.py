@@ -138,11 +138,29 @@ def _mask(target: fdata.Target) -> fdata.Target:
     return replace(target, transfer=np.where(keep, target.transfer, np.nan))
 
 
+def in_band(meas: HammerMeasurement, f_range) -> HammerMeasurement:
+    """The hammer test on the frequencies inside ``f_range`` (low, high) Hz only (None:
+    all): the diagnosis then fits, holds out and judges only there (the FRF points and the
+    decay-rate bands they make)."""
+    if f_range is None:
+        return meas
+    lo, hi = (float(v) for v in f_range)
+    f = meas.frequency
+    keep = (f >= lo) & (f <= hi)
+    if keep.sum() < 2:
+        raise ValueError(f"f_range = ({lo:g}, {hi:g}) Hz keeps {int(keep.sum())} of the "
+                         f"measured frequencies ({f.min():g} to {f.max():g} Hz): give a band "
+                         "inside the measured one")
+    frf = replace(meas.frf, frequency=f[keep], values=meas.frf.values[keep])
+    return replace(meas, frf=frf)
+
+
 def hammer_record(meas: HammerMeasurement, name: str = "hammer", *, sensors=None,
                   f_range=None, hold_every: int = HOLD_EVERY, **options) -> Record:
     """A Record of a hammer test: point, decay rate and the transfers not held out fitted
     (the decay rate over the point and the fitted positions: nothing of the held-out
-    transfers enters the fit)."""
+    transfers enters the fit). f_range: (low, high) Hz, the band diagnosed (in_band)."""
+    meas = in_band(meas, f_range)
     if hold_every < 2:
         raise ValueError(f"hold_every = {hold_every!r}: hold out every n-th transfer position "
                          "with n >= 2")
@@ -153,7 +171,7 @@ def hammer_record(meas: HammerMeasurement, name: str = "hammer", *, sensors=None
     if len(fitted) < 2 or len(held) < 1:
         raise ValueError(f"the hammer test has {len(pos)} positions: too few to hold some out "
                          "(need at least 4)")
-    common = dict(sensors=sensors, f_range=f_range, **options)
+    common = dict(sensors=sensors, **options)
     # the fitted decay rate is the EN 15461 sum over the fitted positions only: over all of
     # them it would carry the held-out transfers into the fit (in aggregate, per band)
     fit = _mask(fdata.hammer_target(meas, use=("point", "transfer", "tdr"),
