@@ -46,7 +46,7 @@ from railfem.identify.problem import Problem, SlowProfile
 from railfem.measurement import DecayRateMeasurement, HammerMeasurement
 from railfem.params import ParameterSpace
 from railfem.spec import TrackSpec, spec_to_dict
-from railfem.standards import iec61260
+from railfem.standards import en15461, iec61260
 
 log = logging.getLogger(__name__)
 
@@ -244,6 +244,7 @@ def fit(data, model: str = "wfe-discrete", *, parameters=DEFAULT_PARAMETERS, bas
     fits of the same geometry, e.g. a campaign). target_options: passed to
     railfem.identify.data.hammer_target / decay_rate_target."""
     t_start = time.perf_counter()
+    en15461.reset_notes()  # its notes once per fit: the data's, not every model evaluation's
     spec0 = base_spec(data, model, base)
     if forward is None:
         names = tuple(parameters)

@@ -73,6 +73,15 @@ DB_PER_NEPER_POWER = 10.0 / math.log(10.0)
 FAR_FIELD_DROP_DB = 10.0
 
 
+_NOTED = {"far_field": False}  # notes logged at INFO once per run (reset_notes)
+
+
+def reset_notes() -> None:
+    """Start a new run: the next failing far-field check is logged at INFO again (later
+    ones at DEBUG)."""
+    _NOTED["far_field"] = False
+
+
 def hammer_positions(sleeper_spacing: float) -> np.ndarray:
     """The 29 EN 15461 hammer positions (m) for sleeper spacing ``sleeper_spacing`` (m)."""
     if not (np.isfinite(sleeper_spacing) and sleeper_spacing > 0.0):
@@ -371,12 +380,13 @@ def decay_rate_from_band_power(
     has_point = np.isfinite(power[:, 0]) & (power[:, 0] > 0.0)
     status = tuple(_status(decay[b], drop[b], d_min[b], int(n_used[b]), bool(has_point[b]),
                            far_field_drop_db) for b in range(n_bands))
-    if log.isEnabledFor(logging.INFO) and (~measurable).any():
-        log.info(
-            "EN 15461 decay rate: far-field %.0f dB check fails in bands %s Hz",
-            far_field_drop_db,
-            centres[~measurable].tolist(),
-        )
+    if (~measurable).any():
+        # once per run at INFO (the measured data come first); a fit evaluates the model's
+        # decay rate hundreds of times: those at DEBUG
+        level = logging.DEBUG if _NOTED["far_field"] else logging.INFO
+        _NOTED["far_field"] = True
+        log.log(level, "EN 15461 decay rate: far-field %.0f dB check fails in bands %s Hz",
+                far_field_drop_db, centres[~measurable].tolist())
     return DecayRateResult(
         frequency=centres,
         decay_rate=decay,
