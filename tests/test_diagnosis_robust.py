@@ -202,7 +202,7 @@ def test_the_band_is_honoured(tmp_path):
         (out / "report.md").read_text()
 
 
-@pytest.mark.parametrize("options", [[], ["--preset", "soft"], ["--pad-length", "0.12"],
+@pytest.mark.parametrize("options", [[], ["--preset", "soft"], ["--pad-length", "120"],
                                      ["--model", "timoshenko-discrete"]])
 def test_fit_and_diagnose_build_the_same_base(options):
     """Same data and options -> the same base spec in fit and diagnose: the site preset on

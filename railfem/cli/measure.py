@@ -5,7 +5,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from .common import count, finite, index, non_negative, parse_use, positive, report_written
+from .common import (count, finite, index, mm_length, non_negative, parse_use, positive,
+                     report_written)
 
 
 # ------------------------------------------------------------ pass-by decay rate
@@ -149,19 +150,21 @@ def base_args(p: argparse.ArgumentParser) -> None:
     """The base model's options, the same for fit and diagnose (railfem.identify.base)."""
     p.add_argument("--preset", default="site", help="spec whose other values are kept "
                    "(Table 1 preset, default site; the data's sleeper spacing is used)")
-    p.add_argument("--pad-length", type=non_negative, default=None, metavar="M",
-                   help="support footprint of the base model: a pad of this length (one "
-                        "spring row spread over it); default 0, point supports (fit: add "
-                        "pad_length to --parameters to profile it; diagnose compares pad "
-                        "lengths as the pad_length effect)")
+    p.add_argument("--pad-length", type=non_negative, default=None, metavar="MM",
+                   help="support footprint of the base model: a pad of this length in mm "
+                        "(one spring row spread over it); default 0, point supports (fit: "
+                        "add pad_length to --parameters to profile it; diagnose compares "
+                        "pad lengths as the pad_length effect)")
 
 
 def base_from_args(args):
     """The base TrackSpec of fit and diagnose from their options (before the data's spacing
-    is applied): railfem.identify.base.default_base."""
+    is applied): railfem.identify.base.default_base (--pad-length in mm, as in ``railfem
+    track``)."""
     from ..identify.base import default_base
 
-    return default_base(args.model, preset_name=args.preset, pad_length=args.pad_length)
+    pad = mm_length("--pad-length", args.pad_length, 1.0, 1000.0, "150")
+    return default_base(args.model, preset_name=args.preset, pad_length=pad)
 
 
 def f_range_from_args(args):
