@@ -121,3 +121,89 @@ def test_woodbury_with_pads_in_rows():
                                                                             jf[0][p]]
         got = su.receptance(K, k_dev, (0, 2))[:, :, p]
         assert np.abs(got - ref).max() < 1e-8 * np.abs(ref).max()
+
+
+# ------------------------------------------------------------------ the diagnosis's evaluator
+
+
+@pytest.fixture(scope="module")
+def data():
+    from benchmarks.blind import generators as g
+    from railfem.diagnosis import prepare
+    from railfem.standards import en15461
+
+    pos = en15461.hammer_positions(0.6).astype(float)[::4]
+    pos[0] = models.POINT_OFFSET
+    f = F[:3]
+    return prepare(g.measurement(np.ones((len(f), 1, len(pos)), complex), pos, f))
+
+
+@pytest.fixture(scope="module")
+def record(data):
+    return data.records[0]
+
+
+def test_evaluator_takes_deviations_on_wfe_discrete_by_the_woodbury_path(record):
+    """wfe-discrete with a voided sleeper: the evaluator's Woodbury path agrees with the
+    door (the full coupling solve on supports at absolute positions, 20 m beyond every
+    position: the two differ by the truncation of the supported stretch only), and its
+    closed-form tangents with central differences of the receptance."""
+    from railfem.diagnosis.evaluate import MARGIN, Evaluator
+    from railfem.identify.forward import door_receptance
+
+    t = record.fit
+    spec = wfe_spec(n_supports=131).replace(deviations=(rf.SupportDeviation(index=2, kb=0.05),))
+    ev = Evaluator()
+    a, tan = ev.tangents(spec, record)
+    assert np.array_equal(a, ev.receptance(spec, record))
+    far = spec.replace(n_supports=2 * math.ceil((t.force_x.max() + MARGIN) / 0.6) + 1)
+    ref = door_receptance(far, t.frequency, t.sensor_x, t.force_x, t.outputs)
+    uni = door_receptance(far.replace(deviations=()), t.frequency, t.sensor_x, t.force_x,
+                          t.outputs)
+    point = np.abs(ref[:, :, :1])
+    assert (np.abs(ref - uni) / point).max() > 0.05  # the void matters
+    assert (np.abs(a - ref) / point).max() < 3e-3
+    h = 1e-5
+    for which in ("kb", "kp"):
+        d = spec.deviations[0]
+        up, dn = (spec.replace(deviations=(rf.SupportDeviation(
+            index=2, **{**{"kb": d.kb, "kp": d.kp}, which: getattr(d, which) * math.exp(s)}),))
+            for s in (h, -h))
+        ref_t = (ev.receptance(up, record) - ev.receptance(dn, record)) / (2 * h)
+        assert np.abs(tan[(2, which)] - ref_t).max() < 1e-5 * np.abs(ref_t).max(), which
+
+
+def test_voided_and_random_support_are_tried_on_wfe_discrete_and_said_why_not_elsewhere(data):
+    from railfem.diagnosis import effects
+    from railfem.diagnosis.loop import applicable
+    from railfem.spec import model_kind
+
+    for name in ("voided_sleeper", "random_support"):
+        e = effects.get(name)
+        assert "deviations" in e.needs
+        assert effects.deviation_refusal(model_kind("wfe-discrete")) == ""
+        assert effects.deviation_refusal(model_kind("timoshenko-discrete")) == ""
+        assert "periodic" in effects.deviation_refusal(model_kind("wfe-periodic"))
+    said = effects.not_tried({"random_support": "not screened by default"})
+    assert "random_support (not screened by default)" in said
+    assert effects.not_tried({}) == ""
+    for name in ("voided_sleeper", "random_support"):
+        assert applicable(effects.get(name), data, "wfe-discrete") == (True, "")
+        ok, why = applicable(effects.get(name), data, "wfe-periodic")
+        assert not ok and "periodic" in why
+
+
+@pytest.mark.slow
+def test_diagnose_names_a_voided_sleeper_on_wfe_discrete():
+    """The closed loop on wfe-discrete: data with a voided sleeper (support 2, ballast
+    factor 0.05; the door, supports at absolute positions), a coarse grid up to 2 kHz:
+    voided_sleeper is tried (a Woodbury update per evaluation), named, at its support."""
+    from benchmarks.blind import generators as g
+    from railfem.diagnosis import diagnose
+
+    f = g.frequencies(low=50.0, high=2000.0)[::3]
+    data = g.dataset("voided_sleeper", 0, f=f, model="wfe-discrete")
+    d = diagnose(data, model="wfe-discrete", effects=("voided_sleeper",), n_starts=2)
+    assert "voided_sleeper" not in d.skipped
+    assert d.chosen is not None and d.chosen.name == "voided_sleeper", d.statement
+    assert d.chosen.grid[("voided_sleeper", "index")] == g.CASES["voided_sleeper"]["index"]

@@ -403,6 +403,12 @@ class SupportUpdate:
             self._maps.append((pr, pj))
 
     @property
+    def nbytes(self) -> int:
+        """Memory held (bytes)."""
+        return int(sum(v.nbytes + w.nbytes for v, w in zip(self.V, self.Vw))
+                   + self.GV.nbytes + self.VB.nbytes)
+
+    @property
     def springs_per_support(self) -> int:
         return self.n_rows * self.n_p
 

@@ -156,3 +156,26 @@ def get(name: str) -> Effect:
     except KeyError:
         raise ValueError(f"unknown effect {name!r}; the library has {', '.join(REGISTRY)}") \
             from None
+
+
+def deviation_refusal(kind) -> str:
+    """Why an effect with deviating supports (needs 'deviations') cannot be tried on the
+    model kind ``kind`` (railfem.spec.ModelKind); '' where it can: the discrete tracks
+    (beam and WFE rail) take deviations as a low-rank update of their coupling
+    (railfem.track.coupling.SupportUpdate)."""
+    if kind.is_periodic:
+        return ("a deviating support breaks the periodicity the periodic model is built on "
+                "(Floquet sums over identical supports); its kernel holds no receptances "
+                "between the supports of a finite window, so no low-rank update applies: "
+                "diagnose with wfe-discrete, which tries it")
+    if kind.is_continuous:
+        return f"a continuous foundation ({kind.name}) has no supports to deviate"
+    return ""
+
+
+def not_tried(skipped: dict) -> str:
+    """The clause a diagnosis statement ends with: every effect of the library that was not
+    tried and why ('' when all were), so that nothing is skipped silently."""
+    if not skipped:
+        return ""
+    return "; not tried: " + "; ".join(f"{k} ({v})" for k, v in skipped.items())
