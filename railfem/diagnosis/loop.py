@@ -104,10 +104,8 @@ def applicable(effect, data: DiagnosisData, model: str):
     for need in effect.needs:
         if need == "discrete" and model_kind(model).is_continuous:
             return False, f"needs discrete supports (model {model})"
-        if need == "deviations" and model_kind(model).is_wfe:
-            return False, ("a deviating support needs the full coupling solve of the WFE "
-                           "track per evaluation (seconds, hundreds of them): diagnose with "
-                           "timoshenko-discrete for this effect")
+        if need == "deviations" and library.deviation_refusal(model_kind(model)):
+            return False, library.deviation_refusal(model_kind(model))
         if need == "hammer" and "hammer" not in data.kinds:
             return False, "needs hammer FRFs (the data are decay rates only)"
         if need.startswith("covariate:"):
@@ -536,6 +534,7 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
                           final_held_out=held_gate(s.base, chosen, pred_ref=s.pred_base))
     seconds["final"] = time.perf_counter() - t
     verdict, statement = decide(st_before, st_after, chosen, chosen_row, rows, s.failures)
+    statement += library.not_tried(skipped)
     seconds["total"] = time.perf_counter() - t0
     log.info("diagnosis: %s (%.1f s)", statement, seconds["total"])
     return Diagnosis(data=data, model=model, base=s.base, base_fit=fr,
