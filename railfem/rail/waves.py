@@ -90,7 +90,7 @@ class FamilyOperators:
         self.k0_data = _on_pattern(self.pattern, k0)
         self.m_data = _on_pattern(self.pattern, M)
         self.extra = None  # optional omega -> sparse stiffness (ordered DOFs), e.g. a foundation
-        self._key = None
+        self._key = self._lossless = None
 
     def constant_matrix(self, omega: float, c: complex | None = None):
         """Z(omega) = c K0' - omega^2 M (+ extra(omega)), CSC; c defaults to 1 + i eta."""
@@ -116,7 +116,7 @@ class FamilyOperators:
     def lossless_key(self) -> bytes:
         """Digest of the matrices and DOF order without the loss factor: what an undamped
         (real-arithmetic) solve depends on, shared by operators of any loss factor."""
-        if getattr(self, "_lossless", None) is None:
+        if self._lossless is None:
             h = hashlib.blake2b(digest_size=20)
             h.update(self.family.encode())
             for arr in (self.order, self.T.indices, self.T.indptr, self.T.data,
