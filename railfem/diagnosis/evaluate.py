@@ -94,7 +94,7 @@ class Evaluator:
         t = record.fit
         sx, fx = shifted(record, shift)
         if self._woodbury(spec, shift):
-            return self._deviations(spec, record)
+            return self._deviations(spec, record, shift)
         if spec.deviations:
             need = int(2 * math.ceil((max(np.abs(fx).max(), abs(sx)) + MARGIN)
                                      / spec.spacing) + 1)
@@ -105,50 +105,71 @@ class Evaluator:
     def tangents(self, spec, record, shift=(0.0, 0.0)):
         """(receptance, {(support index, 'kp' | 'kb'): d receptance / d ln factor}) of a
         discrete track with deviating supports (the Woodbury path, exact derivatives), or
-        None where that path does not serve the spec (a shift, lateral springs)."""
+        None where that path does not serve the spec (lateral springs, two rails)."""
+        shift = (float(shift[0]), float(shift[1]))
         if not self._woodbury(spec, shift):
             return None
-        return self._deviations(spec, record, gradient=True)
+        return self._deviations(spec, record, shift, gradient=True)
 
     @staticmethod
     def _woodbury(spec, shift) -> bool:
         """The Woodbury path serves a single-rail discrete track (beam or WFE rail, point
-        supports or pads in rows) with deviations, vertical springs, unshifted, every
-        deviating support keeping some stiffness (1/k enters the update)."""
-        return (spec.kind.is_discrete and bool(spec.deviations)
-                and tuple(map(float, shift)) == (0.0, 0.0) and spec.rails == 1
+        supports or pads in rows) with deviations and vertical springs, at any registered
+        geometry shift, every deviating support keeping some stiffness (1/k enters the
+        update)."""
+        return (spec.kind.is_discrete and bool(spec.deviations) and spec.rails == 1
                 and spec.support_directions == "z"
                 and all(min(d.kp, d.kb) > 0 for d in spec.deviations))
 
-    def _update(self, spec, record) -> SupportUpdate:
-        """The Woodbury form of the uniform track of ``spec`` at the record's geometry
-        (its kernel is the record's own: the one the base fit computed)."""
-        uni = spec.replace(deviations=())
-        key = (record.geometry_key, "deviations", spec.model, float(spec.rail.eta),
+    def _update(self, spec, record, shift):
+        """(the Woodbury form of the uniform track of ``spec``, the pairs of ``shift``):
+        the record's own kernel (the one the base fit computed) unshifted, else the
+        kernel of every shift registered for the record (the one _bank uses)."""
+        shifts = ((0.0, 0.0),) if shift == (0.0, 0.0) else \
+            tuple(self.shifts.get(record.name, [(0.0, 0.0)]))
+        if shift not in shifts:  # an unregistered shift: a kernel of its own
+            shifts = ((0.0, 0.0), shift)
+        key = (record.geometry_key, shifts, "deviations", spec.model, float(spec.rail.eta),
                float(spec.pad_length), spec.n_rows, spec.spacing, spec.n_supports,
                spec.rail, spec.numerics)
         if key in self._updates:
             self._updates.move_to_end(key)
-            return self._updates[key]
+            su, sel = self._updates[key]
+            return su, sel[shift]
         t = record.fit
-        canon = uni.replace(support=plain_support(uni.support))
+        canon = spec.replace(deviations=(), support=plain_support(spec.support))
         log.info("diagnosis: Woodbury form of the %s track for deviating supports (%s, "
-                 "eta_r %.4g)", spec.model, record.name, spec.rail.eta)
-        kernel, jr, jf = models.discrete_kernel(canon, t.frequency, t.force_x, [t.sensor_x],
+                 "eta_r %.4g, %d geometries)", spec.model, record.name, spec.rail.eta,
+                 len(shifts))
+        geo = [shifted(record, s) for s in shifts]
+        rx = np.unique(np.round([g[0] for g in geo], 10))
+        fx = np.unique(np.round(np.concatenate([g[1] for g in geo]), 10))
+        if len(shifts) == 1:  # the record's own geometry: the base fit's kernel
+            rx, fx = [t.sensor_x], t.force_x
+        kernel, jr, jf = models.discrete_kernel(canon, t.frequency, fx, rx,
                                                 outputs=t.outputs, cache=self.cache)
-        shift = np.round((t.sensor_x + np.asarray(t.force_x)) / (2 * spec.spacing))
-        self._updates[key] = SupportUpdate(kernel, canon.layout().springs().weight, jr[0],
-                                           jf[0], shift.astype(int), n_rows=spec.n_rows)
+        pr, pf, sel, centre = [], [], {}, []
+        for s, (sx, f_) in zip(shifts, geo):
+            r = 0 if len(shifts) == 1 else int(np.searchsorted(rx, round(sx, 10)))
+            c = np.arange(len(f_)) if len(shifts) == 1 else \
+                np.searchsorted(fx, np.round(f_, 10))
+            sel[s] = np.arange(len(pr), len(pr) + len(c))
+            pr += [jr[r, ci] for ci in c]
+            pf += [jf[r, ci] for ci in c]
+            centre += list(np.round((sx + np.asarray(f_)) / (2 * spec.spacing)).astype(int))
+        su = SupportUpdate(kernel, canon.layout().springs().weight, np.array(pr),
+                           np.array(pf), np.array(centre), n_rows=spec.n_rows)
+        self._updates[key] = (su, sel)
         self.n_kernels += 1
         while (len(self._updates) > 1  # each holds (springs)^2 per frequency
-               and sum(u.nbytes for u in self._updates.values()) > MAX_UPDATE_BYTES):
+               and sum(u.nbytes for u, _ in self._updates.values()) > MAX_UPDATE_BYTES):
             self._updates.popitem(last=False)
-        return self._updates[key]
+        return su, sel[shift]
 
-    def _deviations(self, spec, record, gradient: bool = False):
+    def _deviations(self, spec, record, shift, gradient: bool = False):
         """A discrete track with deviating supports: the uniform track's eigen form plus
         a low-rank (Woodbury) update (railfem.track.coupling.SupportUpdate); exact."""
-        su = self._update(spec, record)
+        su, pairs = self._update(spec, record, shift)
         uni = spec.replace(deviations=())
         w = 2 * np.pi * record.fit.frequency
         K = dynamic_stiffness(uni.support, w)
@@ -158,8 +179,8 @@ class Evaluator:
         idx = [d.index for d in spec.deviations]
         fit = (lambda a: np.repeat(a, n_out, axis=1) if a.shape[1] != n_out else a)
         if not gradient:
-            return fit(su.receptance(K, k_dev, idx))
-        a, da = su.receptance(K, k_dev, idx, gradient=True)
+            return fit(su.receptance(K, k_dev, idx, pairs=pairs))
+        a, da = su.receptance(K, k_dev, idx, gradient=True, pairs=pairs)
         h = 1e-7
         tangent = {}
         for j, d in enumerate(spec.deviations):

@@ -427,11 +427,11 @@ class SupportUpdate:
                          + sg[None, :] * Vw[:, np.maximum(b, 0)]) / 2)
         return np.concatenate(rows, axis=1), np.concatenate(cols, axis=0)
 
-    def _gather(self, indices):
-        """The kernel springs the supports ``indices`` take over all pairs (their union
-        U), per pair the position of each one's springs in U (pair, m springs) and
+    def _gather(self, indices, pairs):
+        """The kernel springs the supports ``indices`` take over the pairs ``pairs`` (their
+        union U), per pair the position of each one's springs in U (pair, m springs) and
         whether it is inside the window."""
-        s = self.centre + np.asarray(indices, dtype=int)[None, :] - self.shift[:, None]
+        s = self.centre + np.asarray(indices, dtype=int)[None, :] - self.shift[pairs, None]
         ok = (s >= 0) & (s < self.n_sup)
         k = self.springs_per_support
         sp = (np.where(ok, s, 0)[:, :, None] * k + np.arange(k)).reshape(len(s), -1)
@@ -439,38 +439,55 @@ class SupportUpdate:
         U, pos = np.unique(sp, return_inverse=True)
         return U, pos.reshape(sp.shape), ok
 
-    def receptance(self, K, k_dev, indices, gradient: bool = False):
+    def receptance(self, K, k_dev, indices, gradient: bool = False, pairs=None):
         """(nf, n_out, n_pair) receptance with the supports ``indices`` at dynamic
         stiffness k_dev (nf, m) and all others at K (nf,) (N/m per support); with
-        ``gradient`` also d receptance / d k_dev, (nf, n_out, n_pair, m)."""
+        ``gradient`` also d receptance / d k_dev, (nf, n_out, n_pair, m). pairs: the
+        pairs wanted (indices; default all). A support at k_dev = K (a factor of one) only
+        has its derivative computed: it does not enter the solve (so tangents of many
+        unchanged supports cost little more than the changed ones)."""
         K = np.asarray(K, dtype=complex)
         k_dev = np.asarray(k_dev, dtype=complex).reshape(len(K), -1)
-        U, pos, ok = self._gather(indices)
+        pairs = np.arange(len(self.shift)) if pairs is None else np.asarray(pairs, dtype=int)
+        U, pos, ok = self._gather(indices, pairs)
         m_sup, k = k_dev.shape[1], self.springs_per_support
         wsp = self.w[:k]  # the shares of one support's springs (a uniform pattern)
-        nf, n_out, n_pair = self.direct.shape
+        act = np.repeat(np.any(k_dev != K[:, None], axis=0), k)
+        ia, ip = np.flatnonzero(act), np.flatnonzero(~act)
+        pa, pp_ = pos[:, ia], pos[:, ip]
+        nf, n_out = self.direct.shape[:2]
+        n_pair = len(pairs)
         u = np.empty((nf, n_out, n_pair), dtype=complex)
         du = np.empty((nf, n_out, n_pair, m_sup), dtype=complex) if gradient else None
         p = np.arange(n_pair)[:, None]
         for i in range(nf):
             Kh = K[i] / (1.0 + K[i] * self.lam[i])
-            u0 = self.direct[i] - np.einsum("opn,n,np->op", self.GV[i], Kh, self.VB[i])
+            GV, VB = self.GV[i][:, pairs], self.VB[i][:, pairs]
+            u0 = self.direct[i][:, pairs] - np.einsum("opn,n,np->op", GV, Kh, VB)
             Vu, Vc = self._rows_cols(i, U)
             VK = Vu * Kh
             MU = VK @ Vc
-            R = (self.GV[i] * Kh) @ Vc  # (o, pair, u)
-            Q = (VK @ self.VB[i]).T  # (pair, u)
-            C = MU[pos[:, :, None], pos[:, None, :]]
-            a = R[:, p, pos]  # (o, pair, m)
-            b = Q[p, pos]  # (pair, m)
+            R = (GV * Kh) @ Vc  # (o, pair, u)
+            Q = (VK @ VB).T  # (pair, u)
             D = ((1.0 / k_dev[i][:, None] - 1.0 / K[i]) / wsp[None, :]).ravel()[None] * ok
-            A = np.eye(D.shape[1]) + D[:, :, None] * C
-            y = np.linalg.solve(A, (D * b)[..., None])[..., 0]
+            Da = D[:, ia]
+            C = MU[pa[:, :, None], pa[:, None, :]]
+            a, b = R[:, p, pa], Q[p, pa]  # (o, pair, m_a), (pair, m_a)
+            A = np.eye(len(ia)) + Da[:, :, None] * C
+            y = np.linalg.solve(A, (Da * b)[..., None])[..., 0]
             u[i] = u0 + np.einsum("opm,pm->op", a, y)
-            if gradient:
-                At = np.swapaxes(A, -1, -2)
-                w = np.linalg.solve(At[None], a[..., None])[..., 0]
-                dD = w * (b - (C @ y[..., None])[..., 0])[None]  # du / dD (o, pair, m)
-                dk = -1.0 * ok / (k_dev[i][:, None] ** 2 * wsp[None, :]).ravel()[None]
-                du[i] = (dD * dk[None]).reshape(n_out, n_pair, m_sup, k).sum(axis=-1)
+            if not gradient:
+                continue
+            # du/dD_j = [(I + D C)^-T a]_j (b - C y)_j; for a spring with D_j = 0 the first
+            # factor is a_j - sum_k C_kj D_k w_k (k active) and y_j = 0
+            w = np.linalg.solve(np.swapaxes(A, -1, -2)[None], a[..., None])[..., 0]
+            dD = np.empty((n_out, n_pair, len(act)), dtype=complex)
+            dD[..., ia] = w * (b - (C @ y[..., None])[..., 0])[None]
+            if len(ip):
+                C_ap = MU[pa[:, :, None], pp_[:, None, :]]  # (pair, m_a, m_p)
+                C_pa = MU[pp_[:, :, None], pa[:, None, :]]
+                w_p = R[:, p, pp_] - np.einsum("pkj,pk,opk->opj", C_ap, Da, w)
+                dD[..., ip] = w_p * (Q[p, pp_] - (C_pa @ y[..., None])[..., 0])[None]
+            dk = -1.0 * ok / (k_dev[i][:, None] ** 2 * wsp[None, :]).ravel()[None]
+            du[i] = (dD * dk[None]).reshape(n_out, n_pair, m_sup, k).sum(axis=-1)
         return (u, du) if gradient else u
