@@ -63,12 +63,13 @@ def test_imports_are_declared_dependencies():
 
 
 def test_core_dependencies_are_few_and_the_heavy_ones_are_extras():
-    """numpy, scipy, scikit-fem and threadpoolctl are what the core needs; the libraries
+    """numpy, scipy, scikit-fem and threadpoolctl are what the core needs (and tqdm, small
+    and pure Python, for the command line's progress bars); the libraries
     imported inside the functions that use them are optional extras that 'all' collects and
     the test extra (what scripts/setup.sh installs) includes."""
     project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
     core = {_requirement_name(r) for r in project["dependencies"]}
-    assert core == {"numpy", "scipy", "scikit-fem", "threadpoolctl"}
+    assert core == {"numpy", "scipy", "scikit-fem", "threadpoolctl", "tqdm"}
     extras = project["optional-dependencies"]
     heavy = {_requirement_name(r) for name, reqs in extras.items() if name not in ("all", "test")
              for r in reqs}

@@ -6,8 +6,6 @@ grid intervals, dominant bands and what to try next)."""
 import logging
 import sys
 
-import numpy as np
-import pytest
 
 import railfem as rf
 from railfem.identify import fit
@@ -30,3 +28,88 @@ def test_a_fit_notes_the_far_field_check_once(caplog):
     lines = [r for r in caplog.records if FAR_FIELD in r.getMessage()]
     assert len(lines) > 5  # the check does fail for model evaluations (at DEBUG)
     assert sum(r.levelno == logging.INFO for r in lines) == 1
+
+
+class _Terminal(__import__("io").StringIO):
+    def isatty(self):
+        return True
+
+
+def test_progress_is_silent_off_a_terminal(caplog):
+    import io
+
+    from railfem.jobs.common import Progress, progress_bar_enabled, watch_progress
+
+    stream = io.StringIO()
+    assert not progress_bar_enabled(stream)
+    with caplog.at_level(logging.INFO, logger="railfem"):
+        with watch_progress(("railfem.identify.fit", r"(?P<done>\d+)/(?P<total>\d+)", {}),
+                            stream=stream):
+            logging.getLogger("railfem.identify.fit").info("fit: start 1/2 done")
+        p = Progress("sweep", stream=stream)
+        for i in range(1, 4):
+            p(i, 3)
+    assert stream.getvalue() == ""  # no bar: log lines only
+    assert "fit: start 1/2 done" in caplog.text and "sweep: 3/3" in caplog.text
+    quiet = logging.getLogger("railfem").level
+    try:  # railfem -q: the loggers pass warnings only, no bar even on a terminal
+        logging.getLogger("railfem").setLevel(logging.WARNING)
+        assert not progress_bar_enabled(_Terminal())
+    finally:
+        logging.getLogger("railfem").setLevel(quiet)
+
+
+def test_progress_gives_no_time_left_before_a_few_steps(caplog):
+    from railfem.jobs.common import ETA_AFTER, Progress
+
+    p = Progress("track", min_interval=0.0, bar=False)
+    with caplog.at_level(logging.INFO, logger="railfem.jobs.common"):
+        for i in range(1, 11):
+            p(i, 10)
+    lines = [r.getMessage() for r in caplog.records]
+    assert len(lines) == 10
+    assert not any("left" in m for m in lines[:ETA_AFTER])  # first steps: set-up
+    assert all("left" in m for m in lines[ETA_AFTER:])
+    term = _Terminal()
+    level = logging.getLogger("railfem").level
+    try:
+        logging.getLogger("railfem").setLevel(logging.INFO)
+        bar = Progress("track", stream=term)
+        bar(1, 10)
+        assert "1/10" in term.getvalue() and "left" not in term.getvalue()
+        bar.close()
+    finally:
+        logging.getLogger("railfem").setLevel(level)
+
+
+def test_fit_prints_every_file_values_in_mn_per_m_and_what_next(tmp_path, capsys):
+    """railfem fit prints its summary in the command line's units (kp, kb in MN/m; fit.json
+    keeps SI), a 'wrote' line for every file it wrote, and points to diagnose when a band's
+    residual is large (30 % scatter on the FRFs)."""
+    import json
+
+    from railfem.cli import main
+    from railfem.io import write_dataset
+
+    Y0, pos = simulate("timoshenko-continuous")
+    data = tmp_path / "data"
+    write_dataset(data, measurement(noisy(Y0, 0.3, 2), pos))
+    out = tmp_path / "out"
+    code = main(["-q", "fit", str(data), "--model", "timoshenko-continuous", "--use",
+                 "point,tdr", "--parameters", "kp,eta_p,kb,eta_b", "--starts", "1",
+                 "--workers", "1", "--no-profiles", "--out", str(out)])
+    printed = capsys.readouterr().out
+    assert code == 0
+    run = json.loads((out / "run.json").read_text())
+    written = [ln.split(" ", 1)[1] for ln in printed.splitlines() if ln.startswith("wrote ")]
+    assert sorted(written) == sorted(run["files"].values())
+    assert {"fit.json", "point.png", "tdr.png", "residual.png", "run.json"} <= {
+        p.rsplit("/", 1)[1] for p in written}
+    kp = [ln for ln in printed.splitlines() if ln.strip().startswith("kp = ")][0]
+    value = float(kp.split("=")[1].split()[0])
+    assert kp.split()[3] == "MN/m" and 200 < value < 800  # truth 400 MN/m
+    fitted = json.loads((out / "fit.json").read_text())
+    p = [p for p in fitted["parameters"] if p["name"] == "kp"][0]
+    assert p["unit"] == "N/m" and 2e8 < p["value"] < 8e8  # SI in the file
+    assert f"railfem diagnose {data}" in printed
+    assert (out / "summary.txt").read_text().strip() in printed

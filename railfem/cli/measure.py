@@ -189,12 +189,16 @@ def fit_run(args) -> int:
                 profiles=() if args.no_profiles else ("kp", "kb"),
                 command=" ".join(sys.argv))
     sys.stdout.write(f"base model: {describe_base(base, params)}\n")
-    results = [s["result"]] if "result" in s else [r for r in s["rows"]]
-    for r in results:
+    from ..jobs.fit import parameter_line
+
+    if "summary" in s:
+        sys.stdout.write("\n".join(s["summary"]) + "\n")
+    for r in s.get("rows", []):
+        sys.stdout.write(f"row {r['row']} ({r['folder']}):\n")
         for name, p in r["parameters"].items():
-            sys.stdout.write(f"{name} = {p['value']:.4g} [{p['ci95'][0]:.3g}, "
-                             f"{p['ci95'][1]:.3g}] identifiable: {p['identifiable']}\n")
-    report_written([Path(args.out) / "run.json"])
+            sys.stdout.write("  " + parameter_line(dict(p, name=name)) + "\n")
+        report_written(r["files"])
+    report_written(s["files"])
     return 0
 
 

@@ -11,6 +11,8 @@ atomically:
   transfers), ``tdr.png`` (decay rate per band): measured vs fitted;
 * ``residual.png`` — residual RMS per band and quantity; ``profiles.png`` — the profile
   likelihoods;
+* ``summary.txt`` — what was found (values in MN/m as the command line takes them) and
+  what to do next, as ``railfem fit`` prints it;
 * ``run.json`` — the command record.
 
 A campaign (``campaign=True``: every selected row of a table) fits the rows on a Dask
@@ -33,8 +35,17 @@ from ..identify.campaign import fit_campaign
 from ..identify.data import model_quantities
 from ..identify.fit import CHI2_95, DEFAULT_PARAMETERS, PROFILED, fit
 from ..io.data import read_data
+from .common import watch_progress
 
 log = logging.getLogger(__name__)
+
+#: the fit's steps as progress bars (railfem.jobs.common.watch_progress): multi-start
+#: points, kernels, profile points (railfem.identify.fit.run_tasks) and campaign rows
+FIT_PROGRESS = (
+    ("railfem.identify.fit", r"^fit: (?P<what>.+?) (?P<done>\d+)/(?P<total>\d+) done", {}),
+    ("railfem.identify.campaign", r"done, (?P<done>\d+)/(?P<total>\d+),",
+     {"what": "campaign rows"}),
+)
 
 
 def run_fit(data, out_dir, *, model: str = "wfe-discrete", use=None,
@@ -53,25 +64,101 @@ def run_fit(data, out_dir, *, model: str = "wfe-discrete", use=None,
               "parameters": list(parameters), "kind": kind}
     if kind == "hammer":
         target_options = {"transfer_positions": transfer_positions, "f_range": f_range}
-        res = fit(items[0], use=use or ("point", "transfer", "tdr"), base=base,
-                  workers=workers, target_options=target_options, **opts)
-        record["files"] = write_fit(out, res, data_label=Path(str(data)).name)
-        record["result"] = _short(res)
+        with watch_progress(*FIT_PROGRESS):
+            res = fit(items[0], use=use or ("point", "transfer", "tdr"), base=base,
+                      workers=workers, target_options=target_options, **opts)
+        label = Path(str(data)).name
     elif not campaign:
         i, meas = items[0]
         if use is not None and tuple(use) != ("tdr",):
             raise ValueError(f"a decay-rate table holds only 'tdr'; --use {','.join(use)}")
-        res = fit(meas, base=base, workers=workers, **opts)
+        with watch_progress(*FIT_PROGRESS):
+            res = fit(meas, base=base, workers=workers, **opts)
         record["row"] = i
         record["metadata"] = meas.metadata.as_dict()
-        record["files"] = write_fit(out, res, data_label=row_label(i, meas.metadata))
-        record["result"] = _short(res)
+        label = row_label(i, meas.metadata)
     else:
-        rows = fit_campaign(items, scheduler=scheduler, base=base, workers=workers, **opts)
+        with watch_progress(*FIT_PROGRESS):
+            rows = fit_campaign(items, scheduler=scheduler, base=base, workers=workers,
+                                **opts)
         record["rows"] = write_campaign(out, rows)
+        record["files"] = {"campaign_csv": str(out / "campaign.csv"),
+                           "campaign_json": str(out / "campaign.json")}
+    if not campaign:
+        record["files"] = write_fit(out, res, data_label=label)
+        record["result"] = _short(res)
+        record["summary"] = fit_summary(res, data, label)
+        record["files"]["summary_txt"] = str(write_text_atomic(
+            out / "summary.txt", "\n".join(record["summary"]) + "\n"))
     record["runtime_s"] = time.perf_counter() - t0
+    record.setdefault("files", {})["run_json"] = str(out / "run.json")
     write_text_atomic(out / "run.json", json.dumps(record, indent=2, default=_json) + "\n")
     return record
+
+
+# ------------------------------------------------------------------ the summary
+
+STRUCTURED_DB = 3.0  # a band whose residual RMS reaches this (dB) is worth a diagnosis
+DISPLAY_UNITS = {"N/m": ("MN/m", 1e-6)}  # what the command line takes
+
+
+def display(value, unit: str) -> tuple[float, str]:
+    """(value, unit) as the command line gives them: N/m as MN/m."""
+    shown, factor = DISPLAY_UNITS.get(unit, (unit, 1.0))
+    return (None if value is None else value * factor), shown
+
+
+def parameter_line(p: dict) -> str:
+    """'kp = 612 MN/m [580, 650] identifiable: yes' (the reason when not 'yes')."""
+    v, unit = display(p["value"], p.get("unit", ""))
+    lo, _ = display(p["ci95"][0], p.get("unit", ""))
+    hi, _ = display(p["ci95"][1], p.get("unit", ""))
+    u = "" if unit in ("", "-") else f" {unit}"
+    why = "" if p["identifiable"] == "yes" else f" ({p.get('reason', '')})"
+    return (f"{p['name']} = {v:.4g}{u} [{lo:.3g}, {hi:.3g}] identifiable: "
+            f"{p['identifiable']}{why}")
+
+
+def worst_band(res) -> tuple[float, str, str, float] | None:
+    """(RMS dB, quantity, sensor, band Hz) of the largest per-band residual, or None."""
+    worst = None
+    for q, table in res.residual_bands.items():
+        for sensor, vals in table.items():
+            if sensor == "band_hz":
+                continue
+            for f, v in zip(table["band_hz"], vals):
+                if v is not None and np.isfinite(v) and (worst is None or v > worst[0]):
+                    worst = (float(v), q, sensor, float(f))
+    return worst
+
+
+def fit_summary(res, data, label: str = "") -> list[str]:
+    """The one-screen summary of a fit: what was found (values in the command line's
+    units, 95 % intervals, identifiability, residual) and what to do next."""
+    t = res.target
+    f = t.frequency
+    L = [f"fit of {res.model} to {label or data}: {', '.join(t.use)}, "
+         f"{f[0]:.0f}-{f[-1]:.0f} Hz, sensors {', '.join(t.outputs)}"]
+    L += ["  " + parameter_line(p) for p in res.parameters]
+    L.append("residual RMS: " + ", ".join(f"{q} {v:.2f} dB"
+                                          for q, v in res.residual_rms.items()))
+    worst = worst_band(res)
+    nxt = []
+    if worst is not None:
+        L.append(f"largest band residual: {worst[1]} ({worst[2]}) {worst[0]:.1f} dB in "
+                 f"the {worst[3]:g} Hz band")
+        if worst[0] >= STRUCTURED_DB:
+            nxt.append(f"the residual reaches {worst[0]:.1f} dB in a band: run `railfem "
+                       f"diagnose {data}` to trace it to an effect the model leaves out")
+    bad = [p["name"] for p in res.parameters if p["identifiable"] == "no"]
+    if bad:
+        nxt.append(f"{', '.join(bad)} not determined by these data: fix "
+                   f"{'it' if len(bad) == 1 else 'them'} (leave out of --parameters, the "
+                   "preset's value is kept) or add a quantity with --use")
+    if not nxt:
+        nxt.append("the parameters are determined and the residual is small: the fitted "
+                   "spec is in fit.json ('spec')")
+    return L + ["next: " + n for n in nxt]
 
 
 def _json(o):
@@ -84,6 +171,7 @@ def _json(o):
 
 def _short(res) -> dict:
     return {"parameters": {p["name"]: {"value": p["value"], "ci95": p["ci95"],
+                                       "unit": p.get("unit", ""),
                                        "identifiable": p["identifiable"]}
                            for p in res.parameters},
             "residual_rms_db": res.residual_rms, "seconds": res.seconds}
