@@ -258,11 +258,14 @@ def rectangle(width: float, height: float) -> RailProfile:
 
 
 def get_profile(name_or_path: str) -> RailProfile:
-    """'60E1'/'UIC60', 'rect:WxH' (mm), or a path to an outline CSV in mm (a polygon unless
+    """'60E1'/'UIC60', '60E1:foot=F,web=W,head=H' (60E1 as built, changes in mm,
+    :func:`uic60_modified`), 'rect:WxH' (mm), or a path to an outline CSV in mm (a polygon unless
     the file asks for smoothing, load_outline_csv)."""
     key = str(name_or_path)
     if key.upper() in ("60E1", "UIC60"):
         return uic60()
+    if key.upper().startswith(MODIFIED_PREFIX.upper()):
+        return uic60_modified(**parse_modified(key))
     if key.lower().startswith("rect:"):
         try:
             w, h = (float(v) * 1e-3 for v in key[5:].lower().split("x"))
@@ -317,3 +320,90 @@ def half_outline(profile: RailProfile) -> np.ndarray:
             f"profile {profile.name!r}: the outline between the axis crossings does not lie "
             "on the y > 0 side; give the outline counter-clockwise with the foot at z = 0")
     return half
+
+
+# --------------------------------------------------- the 60E1 section as built
+#: Where the deformations of :func:`uic60_modified` act on the 60E1 outline (mm, measured
+#: on the packaged outline): the foot tip is 11.8 mm thick (its upper surface starts at
+#: z = 11.8); the web faces (|y| 8.25 mm at their narrowest) and their fillets lie at
+#: |y| < 18 between the foot's upper surface (z >= 24.7) and the head's underside
+#: (z <= 127.6); the head's sides start at z = 136.9 (below: the head's underside).
+UIC60_FOOT_TIP = 11.8
+UIC60_WEB_FULL, UIC60_WEB_ZERO = 12.0, 18.0  # |y|: full web shift inside, none outside
+UIC60_WEB_BAND = (15.0, 150.0)  # z range of the web zone (nothing else at |y| < 18 there)
+UIC60_HEAD_BASE = 137.0  # z below which head wear moves nothing
+#: Largest change accepted per parameter (mm): beyond it the outline's parts run into each
+#: other (a foot tip thinner than 8 mm, a web thinner than 13 mm, a head lower by 20 mm).
+MODIFY_LIMITS = {"foot": (-4.0, 10.0), "web": (-3.0, 6.0), "head": (-10.0, 20.0)}
+MODIFIED_PREFIX = "60E1:"
+
+
+def modify_uic60_outline(outline_mm: np.ndarray, *, foot: float = 0.0, web: float = 0.0,
+                         head: float = 0.0) -> np.ndarray:
+    """The 60E1 outline (mm) with the foot thicker by ``foot`` (mm), the web thicker by
+    ``web`` (mm) and the head lower by ``head`` (mm); each may be negative.
+
+    foot: every point above the foot tip's thickness (11.8 mm) moves up by ``foot`` and the
+    points of the foot tip's end face in proportion to their height (the underside stays at
+    z = 0): the foot is ``foot`` thicker at every y, the web and head ride on it (the rail
+    is that much taller). web: the web's two faces move apart by ``web`` / 2 each (the full
+    shift at |y| <= 12 mm, tapering to none at |y| = 18 mm over the fillets). head: the
+    head above z = 137 mm is compressed so that its top is ``head`` lower (a point at
+    height z above 137 mm moves down by head (z - 137) / (172 - 137)). Each map is
+    monotone in its coordinate, so the outline stays simple within MODIFY_LIMITS."""
+    for name, val in (("foot", foot), ("web", web), ("head", head)):
+        lo, hi = MODIFY_LIMITS[name]
+        if not (np.isfinite(val) and lo <= val <= hi):
+            raise ValueError(f"60E1 {name} change = {show(val)} mm: give a change in mm "
+                             f"between {lo:g} and {hi:g}")
+    p = np.array(outline_mm, dtype=float)
+    y, z = p[:, 0], p[:, 1]
+    top = z.max()
+    a = np.abs(y)
+    web_zone = (z > UIC60_WEB_BAND[0]) & (z < UIC60_WEB_BAND[1])
+    taper = np.clip((UIC60_WEB_ZERO - a) / (UIC60_WEB_ZERO - UIC60_WEB_FULL), 0.0, 1.0)
+    y_new = y + np.sign(y) * 0.5 * web * taper * web_zone
+    span = top - UIC60_HEAD_BASE
+    z_new = z - head * np.clip((z - UIC60_HEAD_BASE) / span, 0.0, 1.0)
+    z_new = z_new + foot * np.clip(z / UIC60_FOOT_TIP, 0.0, 1.0)
+    return np.column_stack([y_new, z_new])
+
+
+def modified_name(*, foot: float = 0.0, web: float = 0.0, head: float = 0.0) -> str:
+    """The profile name :func:`get_profile` reads back: '60E1:foot=+2,web=-1.5,head=0'
+    (mm); the nominal '60E1' when all three are 0."""
+    if foot == 0 and web == 0 and head == 0:
+        return "60E1"
+    return f"{MODIFIED_PREFIX}foot={foot:+g},web={web:+g},head={head:+g}"
+
+
+def uic60_modified(*, foot: float = 0.0, web: float = 0.0, head: float = 0.0) -> RailProfile:
+    """60E1 as built: foot thicker by ``foot``, web thicker by ``web``, head lower by
+    ``head`` (all mm, see :func:`modify_uic60_outline`). The nominal outline when all are
+    0. Its name (:func:`modified_name`) is a profile string of RailSpec.profile."""
+    nominal = uic60()
+    if foot == 0 and web == 0 and head == 0:
+        return nominal
+    pts = modify_uic60_outline(nominal.outline * 1e3, foot=foot, web=web, head=head) * 1e-3
+    return RailProfile(name=modified_name(foot=foot, web=web, head=head), outline=pts,
+                       smooth=True, source=f"{nominal.source}, modified (foot {foot:+g} mm, "
+                       f"web {web:+g} mm, head {head:+g} mm)",
+                       meta={"foot": float(foot), "web": float(web), "head": float(head)})
+
+
+def parse_modified(key: str) -> dict:
+    """{'foot', 'web', 'head'} in mm from '60E1:foot=+2,web=-1.5' (keys may be left out)."""
+    body = key[len(MODIFIED_PREFIX):]
+    out = {"foot": 0.0, "web": 0.0, "head": 0.0}
+    for part in filter(None, (s.strip() for s in body.split(","))):
+        name, _, val = part.partition("=")
+        name = name.strip().lower()
+        try:
+            if name not in out:
+                raise ValueError
+            out[name] = float(val)
+        except ValueError:
+            raise ValueError(f"profile {key!r}: a modified 60E1 is '60E1:foot=F,web=W,head=H' "
+                             "with changes in mm (any of the three), e.g. "
+                             "'60E1:foot=+2,web=-1.5'") from None
+    return out
