@@ -113,3 +113,75 @@ def test_fit_prints_every_file_values_in_mn_per_m_and_what_next(tmp_path, capsys
     assert p["unit"] == "N/m" and 2e8 < p["value"] < 8e8  # SI in the file
     assert f"railfem diagnose {data}" in printed
     assert (out / "summary.txt").read_text().strip() in printed
+
+
+# ------------------------------------------------------------------ the diagnosis report
+
+def _diagnose(tmp_path, case, effects):
+    """railfem diagnose (in-process, warnings as errors) on a small blind data set."""
+    import json
+    import warnings
+
+    from benchmarks.blind import generators as g
+    from railfem.io import write_dataset
+    from railfem.jobs.diagnose import run_diagnose
+
+    src = tmp_path / "data"
+    write_dataset(src, g.dataset(case, 0, f=g.frequencies(low=50.0, high=4000.0)[::2])[0])
+    out = tmp_path / "out"
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)  # e.g. 'Mean of empty slice'
+        run = run_diagnose(src, out, model="timoshenko-discrete", effects=effects,
+                           n_starts=2)
+    return src, run, (out / "report.md").read_text(), json.loads(
+        (out / "diagnosis.json").read_text())
+
+
+def test_report_names_gate_values_tables_and_held_out_db(tmp_path):
+    """A found effect: the gates printed with their values (not the rule names), the
+    candidate table labelled as screening values and the chosen one as final values, one
+    sign convention for the held-out change, the held-out error in dB as well."""
+    src, run, md, s = _diagnose(tmp_path, "pad_frequency", ["pad_frequency", "noise_floor"])
+    assert s["chosen"]["name"] == "pad_frequency"
+    for name in ("MIN_GAIN", "ALPHA", "DELTA_BIC"):
+        assert name not in md and name not in s["rules"]["text"]
+    assert "by >= 10 %" in md and "at 0.01" in md and "by more than 10" in md
+    assert "## Candidates (screening values)" in md
+    assert "## Chosen: pad_frequency (final refit values)" in md
+    red = s["candidates"][0]["held_out"]["reduction"]
+    row = [ln for ln in md.splitlines() if ln.startswith("| 1 | pad_frequency")][0]
+    assert f"| {100 * red:.0f} % |" in row and red > 0  # a reduction, as the log says
+    held = [ln for ln in md.splitlines() if ln.startswith("Held-out error")][0]
+    assert "held-out RMS residual (dB)" in held and " -> " in held.split("(dB)")[1]
+    assert run["groups"][0]["summary"][0] == s["statement"]
+
+
+def test_report_of_an_unexplained_residual_says_where_and_what_next(tmp_path, capsys):
+    """An effect outside the library (a softer rail): the report and the printed summary
+    name the dominant bands with their RMS and what to try next (another model for what a
+    beam skips, random_support, a band limit)."""
+    from railfem.jobs.diagnose import dominant_bands
+
+    src, run, md, s = _diagnose(tmp_path, "rail_stiffness", ["pad_frequency"])
+    assert s["verdict"] != "explained"
+    top = dominant_bands(s)
+    worst = max((r for r in s["error_after"] or s["error_before"]), key=lambda r: r["rms_db"])
+    assert top[0]["band_hz"] == worst["band_hz"]
+    assert f"the {worst['band_hz']:g} Hz band of {worst['quantity']} at " \
+           f"{worst['rms_db']:.1f} dB RMS" in md
+    assert "What to try next:" in md
+    steps = s["next_steps"]
+    assert any(f"railfem diagnose {src}" in n for n in steps)
+    summary = run["groups"][0]["summary"]
+    assert summary[0] == s["statement"] and summary[1].startswith("dominant: ")
+    assert [ln[len("next: "):] for ln in summary[2:]] == steps
+
+
+def test_open_grid_interval_is_shown_open():
+    from railfem.jobs.diagnose import interval
+
+    p = {"ci95": [0.16, 0.24], "reason": "profile over the grid, open on the high side"}
+    assert interval(p) == "[0.16, ≥ 0.24 (grid edge)]"
+    p["reason"] = "profile over the grid, open on the low and high side"
+    assert interval(p) == "[≤ 0.16 (grid edge), ≥ 0.24 (grid edge)]"
+    assert interval({"ci95": [1.0, 2.0], "reason": "profile over the grid"}) == "[1, 2]"

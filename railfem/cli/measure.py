@@ -253,6 +253,8 @@ def diagnose_run(args) -> int:
                      f_range=f_range_from_args(args), base=base_from_args(args),
                      command=" ".join(sys.argv))
     for g in s["groups"]:
-        sys.stdout.write(f"{g['name']}: {g['statement']}\n")
+        lines = g.get("summary") or [g["statement"]]
+        sys.stdout.write(f"{g['name']}: " + "\n  ".join(lines) + "\n")
+        report_written(g["files"])
     report_written([Path(args.out) / "run.json"])
     return 0

@@ -28,11 +28,18 @@ from ..rail.profiles import RailProfile, get_profile
 log = logging.getLogger(__name__)
 
 __all__ = ["Progress", "progress_logger", "progress_bar_enabled", "LogProgress",
-           "watch_progress", "slug", "resolve_profile", "load_or_mesh", "csv_text"]
+           "watch_progress", "FIT_PROGRESS", "slug", "resolve_profile", "load_or_mesh", "csv_text"]
 
 
 # ----------------------------------------------------------------------- progress
 ETA_AFTER = 3  # steps timed before a time left is given (the first one holds the set-up)
+#: the fit's steps as progress bars (watch_progress): multi-start points, kernels,
+#: profile points (railfem.identify.fit.run_tasks) and campaign rows
+FIT_PROGRESS = (
+    ("railfem.identify.fit", r"^fit: (?P<what>.+?) (?P<done>\d+)/(?P<total>\d+) done", {}),
+    ("railfem.identify.campaign", r"done, (?P<done>\d+)/(?P<total>\d+),",
+     {"what": "campaign rows"}),
+)
 
 
 def progress_bar_enabled(stream=None) -> bool:

@@ -20,7 +20,9 @@ from __future__ import annotations
 
 import json
 import logging
+import re
 import time
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -29,7 +31,10 @@ from ..atomic import prepare_output_dir, write_text
 from ..diagnosis import effects as library
 from ..diagnosis import loop
 from ..diagnosis.residual import NEGLIGIBLE_DB
-from ..standards import iec61260
+from ..spec import model_kind
+from ..diagnosis.data import prepare
+from ..standards import en15461, iec61260
+from .common import FIT_PROGRESS, progress_bar_enabled, watch_progress
 
 log = logging.getLogger(__name__)
 
@@ -70,6 +75,7 @@ def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
     from ..io.data import data_kind, read_data
 
     t0 = time.perf_counter()
+    en15461.reset_notes()
     if effects not in (None, "all"):
         for n in effects:
             library.get(n)
@@ -108,19 +114,39 @@ def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
                 effects=effects, base=base,
                 data_options={"f_range": tuple(f_range)} if f_range and kind == "hammer"
                 else None)
+    arg = " ".join(str(p) for p in paths)
     for name, ms in jobs:
         sub = out / name if name else out
         log.info("diagnose: %s (%d record(s))", name or "hammer test", len(ms))
-        d = loop.diagnose(ms, spacing=None if kind == "hammer" else spacing, **opts)
-        files = write_report(sub, d, title=name or Path(paths[0]).name)
+        sp = None if kind == "hammer" else spacing
+        with watch_progress(*FIT_PROGRESS, (LOOP, CANDIDATE, {
+                "what": "candidates screened",
+                "total": candidate_count(ms, sp, opts) if progress_bar_enabled() else None})):
+            d = loop.diagnose(ms, spacing=sp, **opts)
+        files = write_report(sub, d, title=name or Path(paths[0]).name, data=arg, kind=kind)
+        s = json.loads(Path(files[0]).read_text())
         record["groups"].append({"name": name or "hammer", "records": len(ms),
                                  "verdict": d.verdict, "statement": d.statement,
+                                 "summary": findings(s),
                                  "chosen": d.chosen.name if d.chosen else None,
                                  "base_model": d.base_model, "failures": d.failures,
                                  "files": files, "seconds": d.seconds})
     record["runtime_s"] = time.perf_counter() - t0
     write_text(out / "run.json", json.dumps(record, indent=2, default=_json) + "\n")
     return record
+
+
+LOOP = "railfem.diagnosis.loop"
+CANDIDATE = r"^diagnosis: [^:]+: dBIC"  # one screened candidate (loop.screen_singles)
+
+
+def candidate_count(ms, spacing, opts) -> int | None:
+    """How many candidates the diagnosis of ``ms`` screens (for its progress bar)."""
+    try:
+        data = prepare(ms, spacing=spacing, **(opts.get("data_options") or {}))
+        return len(loop.select_effects(data, opts["model"], opts["effects"])[0])
+    except (ValueError, KeyError):
+        return None
 
 
 def passby_rows(paths, *, method: str = "energy", channel: str | None = None,
@@ -187,7 +213,7 @@ def summary(d) -> dict:
         "rules": {"alpha": loop.ALPHA, "min_held_out_gain": loop.MIN_GAIN,
                   "delta_bic": loop.DELTA_BIC, "bound_margin": loop.BOUND_MARGIN,
                   "negligible_structure_db": NEGLIGIBLE_DB,
-                  "text": loop.__doc__.split("4. **Gates**")[1].split("5.")[0].strip()},
+                  "text": gate_text()},
         "library": [library.get(n).describe() for n in library.names()],
         "seconds": d.seconds,
     }
@@ -205,11 +231,89 @@ def summary(d) -> dict:
     return out
 
 
-def write_report(out_dir, d, *, title: str = "") -> list[str]:
-    """diagnosis.json, report.md and the figures of diagnosis ``d`` in ``out_dir``."""
+def gate_text() -> str:
+    """The gates of railfem.diagnosis.loop in words, with the values of its rules."""
+    text = loop.__doc__.split("4. **Gates**")[1].split("5.")[0].strip()
+    for name, value in (("MIN_GAIN", f"{100 * loop.MIN_GAIN:g} %"),
+                        ("ALPHA", f"{loop.ALPHA:g}"), ("DELTA_BIC", f"{loop.DELTA_BIC:g}")):
+        text = re.sub(rf"\b{name}\b", value, text)
+    return text
+
+
+# ------------------------------------------------------------------ what to do next
+
+TOP_BANDS = 3  # dominant bands named in the summary
+HIGH_BAND_HZ = 2000.0  # above it a beam model skips the rail's cross-section deformation
+
+
+def dominant_bands(s: dict, n: int = TOP_BANDS) -> list[dict]:
+    """The ``n`` bands with the largest error (RMS dB) of the remaining residual (after
+    the chosen effect, else the base's), each band's largest over quantities and the
+    fitted and held-out parts."""
+    rows = s["error_after"] or s["error_before"]
+    worst: dict = {}
+    for r in rows:
+        if np.isfinite(r["rms_db"]) and r["rms_db"] > worst.get(r["band_hz"], {}).get(
+                "rms_db", -np.inf):
+            worst[r["band_hz"]] = r
+    return sorted(worst.values(), key=lambda r: -r["rms_db"])[:n]
+
+
+def band_words(r: dict) -> str:
+    return (f"the {r['band_hz']:g} Hz band of {r['quantity']} at {r['rms_db']:.1f} dB RMS "
+            f"({'held-out' if r['part'] == 'held' else 'fitted'} part)")
+
+
+def next_steps(s: dict, data: str = "DATA", kind: str = "hammer") -> list[str]:
+    """What to try after this diagnosis, in words with the commands (``kind``: of DATA,
+    railfem.io.data: a table's bands are its rows', no --f-high)."""
+    if s["verdict"] in ("noise", "explained"):
+        return ["nothing more to look for: the remaining residual is consistent with noise; "
+                "the fitted values are in diagnosis.json"]
+    top = dominant_bands(s)
+    out = []
+    high = [r for r in top if r["band_hz"] >= HIGH_BAND_HZ]
+    if high and kind != "table":
+        f = min(r["band_hz"] for r in high) / 2 ** (1 / 6)  # the band's lower edge
+        out.append(f"leave out the bands that dominate: `railfem diagnose {data} --f-high "
+                   f"{f:.0f}`")
+    if high and model_kind(s["model"]).is_beam:
+        out.append(f"above {HIGH_BAND_HZ:g} Hz the rail's cross-section deforms, which a "
+                   f"beam skips: `railfem diagnose {data} --model wfe-discrete`")
+    for name, why in s["skipped"].items():
+        if "not screened by default" in why:
+            out.append(f"the candidate {name} is not screened by default (tens of "
+                       f"parameters): `railfem diagnose {data} --effects {name}`")
+        elif "--model" in why or "diagnose with" in why:
+            out.append(f"{name} was not tried with this model ({why})")
+    tried = ({n for c in s["candidates"] for n in c.get("effects", [c["name"]])}
+             | set(s["skipped"]) | {f["candidate"] for f in s.get("failures") or []})
+    untried = [e["name"] for e in s["library"] if e["name"] not in tried]
+    if untried:
+        out.append(f"{len(untried)} effect(s) of the library were not asked for "
+                   f"({', '.join(untried)}): `railfem diagnose {data} --effects all`")
+    if not out:
+        out.append("the library's effects do not explain the bands above: look at "
+                   "report.md's figures for a pattern over distance or frequency")
+    return out
+
+
+def findings(s: dict) -> list[str]:
+    """The one-screen summary: the verdict, the dominant bands, what to do next."""
+    L = [s["statement"]]
+    if s["verdict"] != "noise":
+        L.append("dominant: " + "; ".join(band_words(r) for r in dominant_bands(s)))
+    return L + [f"next: {n}" for n in s["next_steps"]]
+
+
+def write_report(out_dir, d, *, title: str = "", data: str = "DATA",
+                 kind: str = "hammer") -> list[str]:
+    """diagnosis.json, report.md and the figures of diagnosis ``d`` in ``out_dir``;
+    ``data``, ``kind``: the DATA argument the report's suggested commands name, its kind."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     s = summary(d)
+    s["next_steps"] = next_steps(s, data, kind)
     files = [str(write_text(out / "diagnosis.json", json.dumps(s, indent=2, default=_json)
                             + "\n"))]
     figs = figures(out, d)
@@ -227,8 +331,28 @@ def _fmt(v, unit=""):
     return f"{v:.4g}{(' ' + unit) if unit and unit != '-' else ''}"
 
 
+def interval(p: dict, key: str = "ci95") -> str:
+    """'[lo, hi]' of a parameter; an end of a grid parameter's interval that is the
+    grid's edge (its profile still below the threshold there) is open: '≥ 0.24 (grid
+    edge)'."""
+    ci = p.get(key) or [None, None]
+    reason = p.get("reason") or ""
+    lo = _fmt(ci[0])
+    hi = _fmt(ci[1])
+    if "open on the low" in reason:
+        lo = f"≤ {lo} (grid edge)"
+    if "open on the" in reason and "high side" in reason:
+        hi = f"≥ {hi} (grid edge)"
+    return f"[{lo}, {hi}]"
+
+
 def markdown(s: dict, figs: list[str], title: str) -> str:
-    L = [f"# Diagnosis {title}".rstrip(), "", f"**{s['statement']}**", "",
+    L = [f"# Diagnosis {title}".rstrip(), "", f"**{s['statement']}**", ""]
+    if s["verdict"] != "noise":
+        L += ["Dominant bands of the remaining residual: "
+              + "; ".join(band_words(r) for r in dominant_bands(s)) + ".", ""]
+    L += ["What to try next:", ""] + [f"* {n}" for n in s["next_steps"]] + [""]
+    L += [
          f"Model: `{s['model']}`. Data: {s['data']['description']}.", "",
          f"Base model: {s['base_model']}.", ""]
     b = s["base"]
@@ -248,16 +372,20 @@ def markdown(s: dict, figs: list[str], title: str) -> str:
              else "")
           + f"; white part {st['sigma_white_db']:.2f} dB, structured part "
           f"{st['structured_rms_db']:.2f} dB).", ""]
-    L += ["## Candidates", "", "Ranked: kept candidates first, then by BIC. Gates "
+    L += ["## Candidates (screening values)", "",
+          "Values of the screening refit of each candidate (the chosen one is refitted "
+          "once more: its final values are under 'Chosen'). Held-out error reduction: how "
+          "much lower the candidate's held-out error is than its reference's (negative: "
+          "higher). Ranked: kept candidates first, then by BIC. Gates "
           + " ".join(s["rules"]["text"].split()), "",
-          "| rank | candidate | kept | dAICc | dBIC | held-out change | p | plausible | "
-          "parameters |", "|---|---|---|---|---|---|---|---|---|"]
+          "| rank | candidate | kept | dAICc | dBIC | held-out error reduction | p | "
+          "plausible | parameters |", "|---|---|---|---|---|---|---|---|---|"]
     for c in s["candidates"]:
         h = c["held_out"]
         th = "; ".join(f"{k}={_fmt(v)}" for e in c["theta"].values() for k, v in e.items())
         L.append(f"| {c['rank']} | {c['name']} | {'yes' if c['kept'] else 'no'} | "
                  f"{c['delta_aicc']:.1f} | {c['delta_bic']:.1f} | "
-                 f"{-100 * (h.get('reduction') or 0):+.0f} % | {_fmt(h.get('p'))} | "
+                 f"{_percent(h.get('reduction'))} | {_fmt(h.get('p'))} | "
                  f"{'yes' if c['plausible'] else c['implausible_why']} | {th} |")
     if s["skipped"]:
         L += ["", "Not tried: " + "; ".join(f"{k} ({v})" for k, v in s["skipped"].items())
@@ -272,14 +400,13 @@ def markdown(s: dict, figs: list[str], title: str) -> str:
                           for f in s["failures"]) + "."]
     if s["chosen"]:
         c = s["chosen"]
-        L += ["", f"## Chosen: {c['name']}", "", "| parameter | value | 95 % interval | "
-              "joint 95 % interval | identifiable |", "|---|---|---|---|---|"]
+        L += ["", f"## Chosen: {c['name']} (final refit values)", "",
+              "| parameter | value | 95 % interval | joint 95 % interval | identifiable |",
+              "|---|---|---|---|---|"]
         for p in c["parameters"]:
-            ci = p.get("ci95") or [None, None]
-            cj = p.get("ci95_joint")
             L.append(f"| {p['name']} | {_fmt(p['value'], p.get('unit', ''))} | "
-                     f"[{_fmt(ci[0])}, {_fmt(ci[1])}] | "
-                     + (f"[{_fmt(cj[0])}, {_fmt(cj[1])}]" if cj else "–")
+                     f"{interval(p)} | "
+                     + (interval(p, "ci95_joint") if p.get("ci95_joint") else "–")
                      + f" | {p.get('identifiable', '-')} |")
         L += ["", "The joint interval holds all the effect's parameters at once with 95 % "
               "confidence (Bonferroni over them); the 95 % interval is each one's own."]
@@ -301,7 +428,10 @@ def markdown(s: dict, figs: list[str], title: str) -> str:
         h = c["held_out"]
         L += ["", f"Held-out error (mean squared scaled residual) {h['mse_ref']:.3g} -> "
               f"{h['mse']:.3g} ({100 * h['reduction']:.0f} % lower, paired t = {h['t']:.2f}, "
-              f"p = {h['p']:.2g} (t-test or Wilcoxon, x2), {h['blocks']} blocks).", "",
+              f"p = {h['p']:.2g} (t-test or Wilcoxon, x2), {h['blocks']} blocks); "
+              "held-out RMS residual (dB), base -> with the effect: "
+              + held_db(s["base"]["residual_rms_db"]["held"], c["residual_rms_db"]["held"])
+              + ".", "",
               "Residual RMS (dB) after, fitted: "
               f"{json.dumps(_round(c['residual_rms_db']['fit']))}; "
               f"held out: {json.dumps(_round(c['residual_rms_db']['held']))}. Structure test "
@@ -321,6 +451,17 @@ def markdown(s: dict, figs: list[str], title: str) -> str:
 
 def _round(d):
     return {k: (None if v is None else round(v, 3)) for k, v in d.items()}
+
+
+def _percent(share) -> str:
+    """0.53 -> '53 %' (no '-0 %')."""
+    return f"{100 * (share or 0.0) + 0.0:.0f} %".replace("-0 %", "0 %")
+
+
+def held_db(before: dict, after: dict) -> str:
+    """'point 3.12 -> 2.50, tdr 1.80 -> 1.20' (RMS dB per quantity)."""
+    return ", ".join(f"{q} {v:.2f} -> {after[q]:.2f}" for q, v in before.items()
+                     if v is not None and after.get(q) is not None) or "none held out"
 
 
 def figures(out: Path, d) -> list[str]:
@@ -365,7 +506,8 @@ def figures(out: Path, d) -> list[str]:
         for c in pick:
             k = int(np.argmin(np.abs(bands.nominal - c)))
             m = (tr.x >= bands.lower[k]) & (tr.x < bands.upper[k])
-            with np.errstate(invalid="ignore"):
+            with np.errstate(invalid="ignore"), warnings.catch_warnings():
+                warnings.simplefilter("ignore", RuntimeWarning)  # a band without points
                 cols.append(np.sqrt(np.nanmean(tr.values[m, 0, :] ** 2, axis=0)) *
                             np.sign(np.nanmean(tr.values[m, 0, :], axis=0)))
             labs.append(f"{c:g} Hz")

@@ -35,17 +35,9 @@ from ..identify.campaign import fit_campaign
 from ..identify.data import model_quantities
 from ..identify.fit import CHI2_95, DEFAULT_PARAMETERS, PROFILED, fit
 from ..io.data import read_data
-from .common import watch_progress
+from .common import FIT_PROGRESS, watch_progress
 
 log = logging.getLogger(__name__)
-
-#: the fit's steps as progress bars (railfem.jobs.common.watch_progress): multi-start
-#: points, kernels, profile points (railfem.identify.fit.run_tasks) and campaign rows
-FIT_PROGRESS = (
-    ("railfem.identify.fit", r"^fit: (?P<what>.+?) (?P<done>\d+)/(?P<total>\d+) done", {}),
-    ("railfem.identify.campaign", r"done, (?P<done>\d+)/(?P<total>\d+),",
-     {"what": "campaign rows"}),
-)
 
 
 def run_fit(data, out_dir, *, model: str = "wfe-discrete", use=None,
