@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 import re
 import time
 import warnings
@@ -275,6 +276,8 @@ def next_steps(s: dict, data: str = "DATA", kind: str = "hammer") -> list[str]:
     high = [r for r in top if r["band_hz"] >= HIGH_BAND_HZ]
     if high and kind != "table":
         f = min(r["band_hz"] for r in high) / 2 ** (1 / 6)  # the band's lower edge
+        step = 10 ** (math.floor(math.log10(f)) - 1)
+        f = math.floor(f / step) * step  # rounded down to 2 digits: 4454 -> 4400
         out.append(f"leave out the bands that dominate: `railfem diagnose {data} --f-high "
                    f"{f:.0f}`")
     if high and model_kind(s["model"]).is_beam:

@@ -32,6 +32,7 @@ from pathlib import Path
 
 from ..atomic import json_safe, prepare_output_dir, write_text
 from ..studies.passby_study import SPEEDS_KMH, STUDY_TRACKS, track_study, warm_cache
+from .common import progress_logger
 
 log = logging.getLogger(__name__)
 
@@ -88,12 +89,15 @@ def run_passby_study(out_dir, *, model: str = "wfe-discrete", tracks=STUDY_TRACK
                flexible_receptance=flexible, sbb=sbb)
     # the sensitivity track does the most work: start it first so the others overlap it
     order = sorted(tracks, key=lambda t: t != sensitivity_track)
+    progress = progress_logger("study tracks")
     if workers > 1 and len(tracks) > 1:
         with ProcessPoolExecutor(max_workers=min(workers, len(tracks))) as pool:
-            done = list(pool.map(track_study, [specs[t] for t in order],
-                                 [cfg] * len(order), [out] * len(order)))
+            done = [_tick(r, progress, k + 1, len(order)) for k, r in enumerate(
+                pool.map(track_study, [specs[t] for t in order], [cfg] * len(order),
+                         [out] * len(order)))]
     else:
-        done = [track_study(specs[t], cfg, out) for t in order]
+        done = [_tick(track_study(specs[t], cfg, out), progress, k + 1, len(order))
+                for k, t in enumerate(order)]
     results = [done[order.index(t)] for t in tracks]
     from ..studies.passby_report import write_study_outputs
 
@@ -114,3 +118,9 @@ def run_passby_study(out_dir, *, model: str = "wfe-discrete", tracks=STUDY_TRACK
     summary["results"] = results
     log.info("study passby: %d tracks in %.0f s", len(tracks), summary["timing_s"]["total"])
     return summary
+
+
+def _tick(result, progress, done: int, total: int):
+    """``result`` after reporting ``done`` of ``total`` to ``progress``."""
+    progress(done, total)
+    return result
