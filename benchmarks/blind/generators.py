@@ -142,6 +142,12 @@ CASES = {
     "section_geometry": {"foot_thickness": 0.0025},  # m; a WFE model's case (a 60E1 foot)
     # every support's pad and ballast stiffness scattered (lognormal, SD of ln)
     "random_support": {"sd_kp": 0.15, "sd_kb": 0.3},
+    # real track: a flexible sleeper of the truth's mass (2 ms), B90 shape, first free-free
+    # bending mode at f1; the same on both rails (the hammer rail's response); a ballast
+    # mass on a damped subgrade
+    "sleeper_flexibility": {"f1": 160.0, "eta_s": 0.03},
+    "two_rail": {"f1": 160.0, "eta_s": 0.03},
+    "ballast_mass": {"mb": 400.0, "kf": 80e6, "eta_f": 0.5},
 }
 RANDOM_SPAN = range(-65, 66)  # supports scattered by random_support (the default 131)
 SCORED_SPAN = range(-8, 25)  # the supports random_support fits
@@ -170,6 +176,18 @@ def truth(case: str, seed: int) -> dict:
     return out
 
 
+def truth_sleeper(ms: float, f1: float, eta: float):
+    """The default (B90-type) sleeper with mass 2 ms (kg) and its bending and shear
+    stiffness scaled so that its first free-free bending mode is at f1 (Hz)."""
+    from railfem.track.sleeper import B90
+
+    m = 2 * ms / B90.mass
+    k = m * (f1 / float(B90.free_frequencies(1)[0])) ** 2
+    return replace(B90, EI=B90.EI * k, kGA=B90.kGA * k, eta=eta,
+                   mass_per_length=B90.mass_per_length * m,
+                   rotary_inertia=B90.rotary_inertia * m)
+
+
 def effect_spec(case: str, seed: int = 0, model=MODEL):
     """The truth TrackSpec of a case whose effect is in the track (None for the others:
     measurement, geometry and campaign effects)."""
@@ -194,6 +212,11 @@ def effect_spec(case: str, seed: int = 0, model=MODEL):
         return spec.replace(deviations=tuple(
             SupportDeviation(index=i, kp=kp, kb=kb)
             for i, (kp, kb) in random_factors(seed, p).items()))
+    if case in ("sleeper_flexibility", "two_rail"):
+        spec = spec.replace(sleeper=truth_sleeper(spec.support.ms, p["f1"], p["eta_s"]))
+        return spec.replace(rails=2) if case == "two_rail" else spec
+    if case == "ballast_mass":
+        return _support(spec, mb=p["mb"], kf=p["kf"], eta_f=p["eta_f"])
     if case == "rail_stiffness":
         return spec.replace(rail=replace(spec.rail, E=p["E"]))
     if case == "section_geometry":  # the modified outline, meshed by Gmsh
