@@ -185,3 +185,30 @@ def test_open_grid_interval_is_shown_open():
     p["reason"] = "profile over the grid, open on the low and high side"
     assert interval(p) == "[≤ 0.16 (grid edge), ≥ 0.24 (grid edge)]"
     assert interval({"ci95": [1.0, 2.0], "reason": "profile over the grid"}) == "[1, 2]"
+
+
+def test_next_steps_name_a_band_limit_another_model_and_random_support():
+    """The worst band at 5 kHz on a beam model: leave out the bands from its lower edge
+    (4454 Hz, rounded down to 4400), a WFE model, and the candidate left out by default."""
+    from railfem.jobs.diagnose import findings, next_steps
+
+    rows = [{"part": "held", "quantity": "transfer", "band_hz": 5000.0, "rms_db": 15.4},
+            {"part": "fit", "quantity": "transfer", "band_hz": 630.0, "rms_db": 9.0},
+            {"part": "fit", "quantity": "tdr", "band_hz": 630.0, "rms_db": 15.2},
+            {"part": "fit", "quantity": "point", "band_hz": 8000.0, "rms_db": 12.4}]
+    s = {"verdict": "unexplained", "statement": "no candidate explains the residual",
+         "model": "timoshenko-discrete", "error_before": rows, "error_after": None,
+         "candidates": [{"name": "pad_frequency", "effects": ["pad_frequency"]}],
+         "skipped": {"random_support": "not screened by default (tens of parameters)"},
+         "failures": [], "library": [{"name": "pad_frequency"}, {"name": "random_support"}]}
+    steps = next_steps(s, "site_b")
+    assert steps[0].endswith("`railfem diagnose site_b --f-high 4400`")
+    assert "`railfem diagnose site_b --model wfe-discrete`" in steps[1]
+    assert "`railfem diagnose site_b --effects random_support`" in steps[2]
+    assert len(steps) == 3  # every effect of the library was tried or named
+    s["next_steps"] = steps
+    lines = findings(s)
+    assert lines[1] == ("dominant: the 5000 Hz band of transfer at 15.4 dB RMS (held-out "
+                        "part); the 630 Hz band of tdr at 15.2 dB RMS (fitted part); the "
+                        "8000 Hz band of point at 12.4 dB RMS (fitted part)")
+    assert next_steps(dict(s, model="wfe-discrete"), "site_b", "table") == steps[2:]

@@ -67,12 +67,14 @@ def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
                  group: str | None = "section,date", spacing: float = 0.6, effects=None,
                  n_starts: int = 4, workers: int = 1, cache=None, campaign: bool = True,
                  passby: dict | None = None, f_range=None, base=None,
-                 command: str = "") -> dict:
+                 reference=None, reference_select=None, command: str = "") -> dict:
     """Diagnose DATA and write the report(s) to ``out_dir``; returns the run record.
     DATA: a hammer dataset folder or descriptor, a decay-rate table, or a list of pass-by
     recordings (``passby``: options of passby_rows). f_range: (low, high) Hz of the FRF
     points of hammer data diagnosed (pass-by bands: ``passby``). base: the base TrackSpec
-    (default railfem.identify.base.default_base, as ``railfem fit``)."""
+    (default railfem.identify.base.default_base, as ``railfem fit``). reference: a
+    reference section (``--reference``: read_reference) every group is diagnosed against
+    (railfem.diagnosis.reference), its table rows chosen by ``reference_select``."""
     from ..io.data import data_kind, read_data
 
     t0 = time.perf_counter()
@@ -116,6 +118,8 @@ def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
                 data_options={"f_range": tuple(f_range)} if f_range and kind == "hammer"
                 else None)
     arg = " ".join(str(p) for p in paths)
+    refs = read_reference(reference, reference_select) if reference is not None else None
+    calibrated: dict = {}
     for name, ms in jobs:
         sub = out / name if name else out
         log.info("diagnose: %s (%d record(s))", name or "hammer test", len(ms))
@@ -123,7 +127,10 @@ def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
         with watch_progress(*FIT_PROGRESS, (LOOP, CANDIDATE, {
                 "what": "candidates screened",
                 "total": candidate_count(ms, sp, opts) if progress_bar_enabled() else None})):
-            d = loop.diagnose(ms, spacing=sp, **opts)
+            if refs is None:
+                d = loop.diagnose(ms, spacing=sp, **opts)
+            else:
+                d = against_reference(ms, refs, calibrated, spacing=sp, opts=opts)
         files = write_report(sub, d, title=name or Path(paths[0]).name, data=arg, kind=kind)
         s = json.loads(Path(files[0]).read_text())
         record["groups"].append({"name": name or "hammer", "records": len(ms),
@@ -131,10 +138,62 @@ def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
                                  "summary": findings(s),
                                  "chosen": d.chosen.name if d.chosen else None,
                                  "base_model": d.base_model, "failures": d.failures,
+                                 "reference": d.reference.to_dict() if d.reference
+                                 else None, "changed": d.changed,
                                  "files": files, "seconds": d.seconds})
     record["runtime_s"] = time.perf_counter() - t0
     write_text(out / "run.json", json.dumps(record, indent=2, default=_json) + "\n")
     return record
+
+
+def read_reference(path, select=None) -> dict:
+    """The reference of ``--reference``: {None: fit dict} for a ``railfem fit`` fit.json or
+    a diagnosis.json (its base), {None: [measurement]} for a hammer dataset, {date: [rows]}
+    for the vertical rows of a decay-rate table (``select``: its row selection)."""
+    from ..io.data import data_kind, read_data
+
+    path = Path(path)
+    if path.suffix == ".json":
+        try:
+            d = json.loads(path.read_text())
+        except (OSError, json.JSONDecodeError) as exc:
+            raise ValueError(f"--reference {path}: not a readable JSON file ({exc})") from None
+        if isinstance(d, dict) and isinstance(d.get("base"), dict) and "spec" in d["base"]:
+            return {None: d["base"]}  # a diagnosis.json: the reference's base
+        if isinstance(d, dict) and "spec" in d and "parameters" in d:
+            return {None: d}  # a railfem fit fit.json
+        raise ValueError(f"--reference {path}: neither a railfem fit fit.json nor a "
+                         "railfem diagnose diagnosis.json")
+    if not path.exists():
+        raise ValueError(f"--reference {path} does not exist")
+    if data_kind(path) != "table":
+        if select:
+            raise ValueError("--reference-select applies to a decay-rate table")
+        return {None: read_data(path)[1]}
+    rows = [m for _, m in read_data(path, select=select, campaign=True)[1]
+            if m.direction == "z"]
+    if not rows:
+        raise ValueError(f"--reference {path}: the selection holds no vertical decay rates")
+    out: dict = {}
+    for m in rows:
+        out.setdefault(m.metadata.date, []).append(m)
+    return out
+
+
+def against_reference(ms, refs: dict, calibrated: dict, *, spacing, opts):
+    """Diagnosis of the records ``ms`` against the reference (read_reference): the rows of
+    the same date where the reference has them, else all its rows; each reference
+    calibrated once (``calibrated``: a cache by date)."""
+    from ..diagnosis import reference as ref_mod
+
+    date = getattr(getattr(ms[0], "metadata", None), "date", None)
+    key = date if date in refs else None
+    if key not in calibrated:
+        src = refs[key] if key in refs else [m for rows in refs.values() for m in rows]
+        keep = {k: opts[k] for k in ("base", "n_starts", "workers", "cache", "data_options")}
+        calibrated[key] = ref_mod.calibrate(src, model=opts["model"], spacing=spacing,
+                                            **keep)
+    return ref_mod.diagnose(ms, reference=calibrated[key], spacing=spacing, **opts)
 
 
 LOOP = "railfem.diagnosis.loop"
@@ -200,6 +259,8 @@ def summary(d) -> dict:
                               "held_out_bands_hz": list(r.held_bands),
                               "metadata": r.metadata.as_dict()} for r in d.data.records]},
         "verdict": d.verdict, "statement": d.statement, "base_model": d.base_model,
+        "reference": d.reference.to_dict() if d.reference is not None else None,
+        "changed_against_reference": d.changed,
         "base": {"parameters": base.parameters(), "spec": spec_to_dict(base.spec()),
                  "cost": base.cost, "aicc": base.aicc, "bic": base.bic, "k": base.k,
                  "n": base.n, "residual_rms_db": {"fit": d.residual_before.rms(part="fit"),
@@ -273,7 +334,9 @@ def next_steps(s: dict, data: str = "DATA", kind: str = "hammer") -> list[str]:
                 "the fitted values are in diagnosis.json"]
     top = dominant_bands(s)
     out = []
-    high = [r for r in top if r["band_hz"] >= HIGH_BAND_HZ]
+    # the worst band high up: the bands there, above the lowest of them, are left out
+    high = ([r for r in top if r["band_hz"] >= HIGH_BAND_HZ]
+            if top and top[0]["band_hz"] >= HIGH_BAND_HZ else [])
     if high and kind != "table":
         f = min(r["band_hz"] for r in high) / 2 ** (1 / 6)  # the band's lower edge
         step = 10 ** (math.floor(math.log10(f)) - 1)
