@@ -21,11 +21,15 @@ and decay rates count by how well each is fitted, not by how many numbers each h
   support parameters are fitted at ``slow_nodes`` values spread over the slow parameter's
   bounds, then the minimum of that profile is refined by parabolic steps (each a new
   kernel) until it moves less than ``slow_tol`` (vector units) or ``slow_refine`` steps are
-  spent. The covariance then uses a finite-difference column for it.
+  spent. After the residual scales are re-weighted the profile is refitted under the final
+  scales (warm starts, one more refinement): the estimate is its minimum and its 95 %
+  interval the profile's (``ci95_linearised``: from the Jacobian, which uses a
+  finite-difference column for it).
 * **Uncertainty** (railfem.identify.uncertainty): covariance from the Jacobian at the
   optimum scaled by the residual variance, 95 % intervals, correlations, identifiability;
   profile likelihoods of the stiffnesses (kp, kb): the other parameters refitted on a grid
-  of fixed values (the kernel parameters held at their estimate).
+  of fixed values (the kernel parameters held at their estimate), with finer points around
+  the minimum until at least PROFILE_MIN_INSIDE lie within the 95 % threshold.
 """
 from __future__ import annotations
 
