@@ -18,9 +18,11 @@ from dataclasses import replace
 from railfem.diagnosis.effects import Effect, EffectParameter
 from railfem.rail.profiles import MODIFY_LIMITS, modified_name
 
-#: foot thickness changes profiled (m): a 3-value grid, refined at the parabola through the
-#: best neighbours (each value is a mesh and a WFE kernel)
-FOOT_CHANGES = (-0.003, -0.0015, 0.0, 0.0015, 0.003)
+#: foot thickness changes profiled (m), refined at the parabola through the best value and
+#: its neighbours (each value is a mesh and a WFE kernel); the ends lie beyond rolling
+#: tolerance and ordinary wear, so that a plausible foot is bracketed (a best value at an
+#: end is not refined)
+FOOT_CHANGES = (-0.004, -0.002, 0.0, 0.002, 0.004)
 NOMINAL = ("60E1", "UIC60")
 
 
