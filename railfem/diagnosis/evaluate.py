@@ -40,7 +40,7 @@ from railfem.track.supports import SupportParameters, dynamic_stiffness
 log = logging.getLogger(__name__)
 
 MARGIN = 20.0  # m of supports beyond the outermost position of a track with deviations
-MAX_UPDATE_BYTES = 2e9  # Woodbury forms kept (records x rail loss factors): (springs)^2 each
+MAX_UPDATE_BYTES = 1e9  # Woodbury forms kept (records x rail loss factors): (springs)^2 each
 
 
 def plain_support(p: SupportParameters) -> SupportParameters:
