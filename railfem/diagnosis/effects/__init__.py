@@ -165,9 +165,10 @@ def deviation_refusal(kind) -> str:
     (railfem.track.coupling.SupportUpdate)."""
     if kind.is_periodic:
         return ("a deviating support breaks the periodicity the periodic model is built on "
-                "(Floquet sums over identical supports); its kernel holds no receptances "
-                "between the supports of a finite window, so no low-rank update applies: "
-                "diagnose with wfe-discrete, which tries it")
+                "(one cell, Floquet sums over identical supports); as a deviation on a finite "
+                "window it would need the periodic track's receptances between the springs "
+                "of every window support, which its kernel does not carry (not "
+                "implemented): diagnose with wfe-discrete, which tries it")
     if kind.is_continuous:
         return f"a continuous foundation ({kind.name}) has no supports to deviate"
     return ""
