@@ -1,11 +1,14 @@
 """The blind study: for a case of benchmarks/blind/generators.CASES and a seed, generate the
 data, diagnose them without telling the diagnosis the case, and score the outcome.
 
-    python -m benchmarks.blind.study OUT.jsonl CASE[,CASE] SEEDS [all]   (e.g. 0-9)
+    python -m benchmarks.blind.study OUT.jsonl CASE[,CASE] SEEDS [all] [--cross]  (e.g. 0-9)
     python -m benchmarks.blind.study --table OUT.jsonl                   (the markdown table)
 
 (``all``: screen every effect of the library, random_support too, which the default
-search leaves out for its cost; the case random_support is always run that way.)
+search leaves out for its cost; the case random_support is always run that way.
+``--cross``: the data made by the cross-model generator, form='cross' of
+benchmarks/blind/generators.py, which differs from the estimator in model form; a clean
+case then counts as right when the verdict is 'consistent' or 'noise'.)
 
 appends one JSON line per run to OUT.jsonl; ``table(rows)`` makes the per-case summary
 (rank-1 rate, interval coverage, held-out error reduction, claims)."""
@@ -24,12 +27,13 @@ ALL_EFFECTS = ("random_support",)  # cases only the whole library (effects='all'
 
 
 def run_case(case: str, seed: int, *, model: str = g.MODEL, f=None, effects=None,
-             n_starts: int = 2) -> dict:
+             n_starts: int = 2, form: str = "own") -> dict:
     from railfem.diagnosis import diagnose
 
     t = time.perf_counter()
     effects = "all" if case in ALL_EFFECTS else effects
-    d = diagnose(g.dataset(case, seed, f=f), model=model, n_starts=n_starts, effects=effects)
+    d = diagnose(g.dataset(case, seed, f=f, model=model, form=form), model=model,
+                 n_starts=n_starts, effects=effects)
     truth = g.truth(case, seed)
     cov = {}
     if d.chosen is not None:
@@ -59,7 +63,22 @@ def run_case(case: str, seed: int, *, model: str = g.MODEL, f=None, effects=None
             "structured_before_db": d.structure_before["structured_rms_db"],
             "structured_after_db": (d.structure_after or {}).get("structured_rms_db"),
             "effects": effects if isinstance(effects, str) or effects is None else
-            list(effects), "seconds": time.perf_counter() - t}
+            list(effects), "form": form, "base": _base_coverage(d),
+            "seconds": time.perf_counter() - t}
+
+
+def _base_coverage(d) -> dict:
+    """The base parameters (kp, eta_p, kb, eta_b, eta_r) against the generator's truth:
+    value, 95 % interval, inside, half-width (vector units: decades)."""
+    out = {}
+    for p in d.base.parameters():
+        if p["name"] in g.TRUTH and p.get("ci95"):
+            lo, hi = p["ci95"]
+            out[p["name"]] = {"value": p["value"], "ci95": [lo, hi],
+                              "inside": bool(lo <= g.TRUTH[p["name"]] <= hi),
+                              "half_width": p.get("std_vector", float("nan"))
+                              * d.base.analysis.get("t_quantile", 1.96)}
+    return out
 
 
 def covered(cov: dict) -> bool:
@@ -100,6 +119,18 @@ def table(rows: list[dict]) -> list[dict]:
     return out
 
 
+def base_table(rows: list[dict]) -> str:
+    """Per base parameter: runs with the truth inside the 95 % interval, and the median
+    half-width of the interval (decades) over the rows that record it."""
+    out = ["| parameter | inside 95 % | median half-width (decades) |", "|---|---|---|"]
+    names = dict.fromkeys(n for r in rows for n in (r.get("base") or {}))
+    for n in names:
+        cs = [r["base"][n] for r in rows if n in (r.get("base") or {})]
+        hw = float(np.median([c["half_width"] for c in cs]))
+        out.append(f"| {n} | {sum(c['inside'] for c in cs)}/{len(cs)} | {hw:.3f} |")
+    return "\n".join(out)
+
+
 def latest(rows: list[dict]) -> list[dict]:
     """One row per (case, seed, effects): the last one not marked ``superseded`` (a re-run
     replaces a row; a row kept for the record of a replaced design is marked)."""
@@ -107,7 +138,7 @@ def latest(rows: list[dict]) -> list[dict]:
     for r in rows:
         if r.get("superseded"):
             continue
-        last[(r["case"], r["seed"], r.get("effects") or "")] = r
+        last[(r["case"], r["seed"], r.get("effects") or "", r.get("form", "own"))] = r
     return list(last.values())
 
 
@@ -117,6 +148,7 @@ def markdown(rows: list[dict]) -> str:
     for r in latest(rows):
         tag = " (all effects)" if r.get("effects") == "all" and r["case"] not in ALL_EFFECTS \
             else ""
+        tag += " (cross-model data)" if r.get("form") == "cross" else ""
         groups.setdefault(r["case"] + tag, []).append(r)
     out = ["| case | seeds | ranked first | explained (right) | partly | false claims | "
            "coverage (joint) | parameters inside 95 % | held-out reduction median (min) | "
@@ -146,15 +178,21 @@ if __name__ == "__main__":
 
     if sys.argv[1] == "--table":  # python -m benchmarks.blind.study --table RESULTS.jsonl
         with open(sys.argv[2], encoding="utf-8") as fh:
-            print(markdown([json.loads(line) for line in fh]))
+            rows = [json.loads(line) for line in fh]
+        print(markdown(rows))
+        if any(r.get("base") for r in rows):
+            print()
+            print(base_table(latest(rows)))
         sys.exit(0)
 
     logging.basicConfig(level=logging.WARNING)
     path, cases, seeds = sys.argv[1], sys.argv[2].split(","), _seeds(sys.argv[3])
-    which = sys.argv[4] if len(sys.argv) > 4 else None
+    form = "cross" if "--cross" in sys.argv else "own"
+    rest = [a for a in sys.argv[4:] if a != "--cross"]
+    which = rest[0] if rest else None
     for case in cases:
         for seed in seeds:
-            row = run_case(case, seed, effects=which)
+            row = run_case(case, seed, effects=which, form=form)
             with open(path, "a", encoding="utf-8") as fh:
                 fh.write(json.dumps(row) + "\n")
             print(json.dumps({k: row[k] for k in ("case", "seed", "rank1", "verdict",

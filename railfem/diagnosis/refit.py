@@ -457,19 +457,21 @@ def profile_eta_r(data, evaluator, spec, effects, outcome: Outcome, scale, *,
     return best
 
 
-def joint_profile(data, ev, spec_b, effect, start: Outcome, scale, gv) -> Outcome:
+def joint_profile(data, ev, spec_b, effect, start: Outcome, scale, gv, *,
+                  bounds=None) -> Outcome:
     """A numeric kernel grid parameter (one) profiled with the rail loss factor free at
     every value (a lattice profile each), then one parabolic step in the grid parameter;
-    its profile and 95 % interval come from these costs."""
+    its profile and 95 % interval come from these costs. ``bounds``: the base's (refit)."""
     (key,) = [(effect.name, n) for n in effect.grid]
     values = sorted(gv.get(key, effect.grid[key[1]]))
 
     def evaluate(v):
         near = prof.nearest(v) if prof.points else start
         o = refit(data, ev, spec_b.replace(eta_r=near.eta_r), (effect,), near.x[:len(BASE)],
-                  scale, grid_values={key: (v,)}, refine=False, x_start=near.x)
+                  scale, grid_values={key: (v,)}, refine=False, x_start=near.x,
+                  bounds=bounds)
         o = profile_eta_r(data, ev, spec_b, (effect,), o, scale, max_steps=6,
-                          refine=True)  # a smooth profile for the steps below
+                          refine=True, bounds=bounds)  # a smooth profile for the steps below
         log.info("diagnosis: %s %s = %.5g: cost %.3f at the best rail-loss kernel, "
                  "%.3f interpolated", effect.name, key[1], v, o.cost, o.profile_cost)
         return o
@@ -531,8 +533,12 @@ def _analyse(problem: core.Problem, box, v, J, r, clusters, unfitted: bool = Tru
     (``unfitted``) the scatter of the effects' unfitted support factors
     (Problem.unfitted_jacobian)."""
     N = problem.unfitted_jacobian(v[:len(problem.box.parameters)]) if unfitted else None
-    out = uncertainty.analyse(box, v, J, r, clusters=clusters, nuisance=N)
+    Nd = problem.discrepancy_columns()  # the model-form discrepancy: random terms as well
+    out = uncertainty.analyse(box, v, J, r, clusters=clusters,
+                              nuisance=N if Nd is None else np.hstack([x for x in (N, Nd)
+                                                                       if x is not None]))
     out["unfitted_terms"] = 0 if N is None else int(N.shape[1])
+    out["discrepancy_terms"] = 0 if Nd is None else int(Nd.shape[1])
     return out
 
 

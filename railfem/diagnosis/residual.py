@@ -277,6 +277,27 @@ def structure_test(res: Residual, *, part="fit", alpha: float = ALPHA,
     return out
 
 
+def beyond_discrepancy(data, pred_ref: dict, pred_c: dict, discrepancy, *, part="held",
+                       alpha: float = ALPHA) -> dict | None:
+    """Whether a candidate changes the prediction by more than the model-form discrepancy:
+    the discrepancy test (discrepancy_test, no noise) on the change model_c - model_ref
+    over ``part`` of every record; 'pass' when it rejects at ``alpha`` (a change within the
+    discrepancy is what another discretisation of the base could do as well). None
+    without discrepancy (a Discrepancy, or a Scale that carries one)."""
+    discrepancy = getattr(discrepancy, "discrepancy", discrepancy)
+    if discrepancy is None:
+        return None
+    ref = make_residual(data, pred_ref, (part,), discrepancy=discrepancy)
+    cand = make_residual(data, pred_c, (part,), discrepancy=discrepancy)
+    change = [Block(**{**a.__dict__, "values": a.values - b.values, "variance": None})
+              for a, b in zip(ref.blocks, cand.blocks) if a.quantity != "phase"]
+    out = discrepancy_test(change, 0.0)
+    if out is None:
+        return None
+    out["pass"] = bool(out["p"] < alpha)
+    return out
+
+
 def discrepancy_test(used, sigma_w: float) -> dict | None:
     """The residual's size against noise plus model-form discrepancy (module docstring):
     {R, k, p, the discrepancy's RMS and what exceeds it (dB)}; None without discrepancy."""

@@ -31,7 +31,7 @@ discrepancy.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -47,19 +47,23 @@ BEAM_VARIANTS = ("constants: catalogue", "constants: mesh 15 mm",
 PAD_ROWS = (1, 3)  # rows of a pad of finite length the variants alternate between
 
 
-@dataclass(frozen=True, kw_only=True)
+@dataclass(frozen=True, kw_only=True, eq=False)
 class Discrepancy:
     """Per one-third-octave band (``index``: the IEC 61260 band numbers x, f_m = 1000
     10^(x/10) Hz) and quantity, the discrepancy variance s_d^2 (dB^2): {quantity:
     (n_bands,)}; ``variants``: the labels of the configurations it was estimated from;
-    ``factor``: the variance is multiplied by it (1: as estimated)."""
+    ``factor``: the variance is multiplied by it (1: as estimated); ``samples``: {(record
+    name, quantity): (n_variants, ...) dB} the variants' differences from the base on the
+    axes of railfem.identify.data.residual_table of the record's fitted part (NaN where not
+    used), from which the parameter intervals take the estimate's shift under each variant
+    (railfem.identify.problem.Problem.discrepancy_columns)."""
 
     index: np.ndarray
     variance: dict
     variants: tuple = ()
     factor: float = 1.0
     method: str = "ensemble"
-    _cache: dict = field(default_factory=dict, repr=False, compare=False)
+    samples: dict | None = None
 
     def __post_init__(self):
         v.non_negative("Discrepancy.factor", self.factor, "(-)", "1 for the estimate as is")
@@ -81,7 +85,7 @@ class Discrepancy:
 
     def scaled(self, factor: float) -> Discrepancy:
         """The same estimate with its variance multiplied by ``factor``."""
-        return replace(self, factor=float(factor), _cache={})
+        return replace(self, factor=float(factor))
 
     def at(self, quantity: str, x) -> np.ndarray:
         """s_d^2 (dB^2) of ``quantity`` at frequencies (or band centres) x (Hz): the value
@@ -191,20 +195,27 @@ def band_variance(diffs) -> tuple[np.ndarray, dict]:
     return index, var
 
 
-def differences(target, base: np.ndarray, other: np.ndarray) -> list:
-    """[(quantity, x (Hz), L_other - L_base (dB))] over the entries ``target`` uses
-    (railfem.identify.problem.used_entries), from two receptances on its axes."""
-    from railfem.identify.problem import Prediction, table, used_entries
+def differences(target, base: np.ndarray, other: np.ndarray) -> dict:
+    """{quantity: L_other - L_base (dB)} on the axes of railfem.identify.data.residual_table
+    of ``target`` (NaN where the target does not use an entry), from two receptances."""
+    from railfem.identify.problem import Prediction, table
 
     ta = table(target, Prediction(level=base, power=base))
     tb = table(target, Prediction(level=other, power=other))
+    return {q: np.asarray(tb[q], dtype=float) - np.asarray(ta[q], dtype=float) for q in ta}
+
+
+def entries(target, diff: dict) -> list:
+    """[(quantity, x in Hz, difference in dB)] of the entries ``target`` uses
+    (railfem.identify.problem.used_entries) of a ``differences`` table."""
+    from railfem.identify.problem import used_entries
+
     out = []
-    for q in ta:
+    for q, d in diff.items():
         used = used_entries(target, q)
         axis = target.bands.nominal if q == "tdr" else target.frequency
         x = np.broadcast_to(np.asarray(axis, dtype=float).reshape((-1,) + (1,) * (used.ndim - 1)),
                             used.shape)
-        d = np.asarray(tb[q], dtype=float) - np.asarray(ta[q], dtype=float)
         out.append((q, x[used], d[used]))
     return out
 
@@ -215,19 +226,23 @@ def ensemble(records, receptance, spec, labels=None, *, factor: float = 1.0) -> 
     ``receptance(spec, record)`` -> (nf, n_out, n_pos) the model at the record's geometry
     (railfem.diagnosis.evaluate.Evaluator.receptance). See the module docstring."""
     base = {r.name: receptance(spec, r) for r in records}
-    diffs, used = [], []
+    diffs, used, samples = [], [], {}
     for lab, s in variants(spec, labels):
         try:
-            for r in records:
-                diffs += differences(r.fit, base[r.name], receptance(s, r))
+            tabs = {r.name: differences(r.fit, base[r.name], receptance(s, r)) for r in records}
         except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
             log.warning("discrepancy: variant %r left out: %s", lab, exc)
             continue
+        for r in records:
+            diffs += entries(r.fit, tabs[r.name])
+            for q, d in tabs[r.name].items():
+                samples.setdefault((r.name, q), []).append(d)
         used.append(lab)
     if not used:
         return none()
     index, var = band_variance(diffs)
-    d = Discrepancy(index=index, variance=var, variants=tuple(used), factor=factor)
+    d = Discrepancy(index=index, variance=var, variants=tuple(used), factor=factor,
+                    samples={k: np.stack(v) for k, v in samples.items()})
     log.info("discrepancy over %s: RMS %s dB", ", ".join(used),
              {q: round(x, 2) for q, x in d.rms_db().items()})
     return d

@@ -347,8 +347,43 @@ class Problem:
         from closed-form tangents; None when the model has none."""
         get = getattr(self.model, "unfitted_tangents", None)
         got = None if get is None else get(x)
-        if got is None:
+        return None if got is None else self._unfitted(x, got, h)
+
+    def discrepancy_columns(self) -> np.ndarray | None:
+        """The model-form discrepancy (a Scale's, used_rows only) as random terms of the
+        fitted residual, zero rows for the prior entries; None without discrepancy. With
+        the ensemble's samples (Discrepancy.samples): one column per variant, its
+        difference from the base over each entry's scale times sqrt(factor / n): the
+        intervals then carry the mean square of the estimate's shift under the variants.
+        Without: one column per (record, quantity, sensor, band) cell, s_d of the band on
+        the cell's entries (a discrepancy shared by a band's positions and frequencies)."""
+        disc = getattr(self.scale, "discrepancy", None)
+        if disc is None or self.rows is not used_rows:
             return None
+        samples = disc.samples or {}
+        if samples and all((r.name, q) in samples for r in self.records for q in r.fit.use):
+            cols = []
+            for r in self.records:
+                for q in cluster_labels(r.fit):  # the order of the residual's entries
+                    S = samples[(r.name, q)][:, used_entries(r.fit, q)]
+                    cols.append(S / entry_scale(self.scale, r.fit, q, used_rows))
+            N = np.concatenate(cols, axis=1).T * math.sqrt(disc.factor / len(disc.variants))
+            N = np.vstack([np.nan_to_num(N), np.zeros((self.n_prior(), N.shape[1]))])
+            return N if np.any(N != 0) else None
+        vals, labels = [], []
+        for r in self.records:
+            for q, lab in cluster_labels(r.fit).items():
+                d2 = disc.at(q, row_x(r.fit, q, used_rows))
+                vals.append(np.sqrt(d2) / entry_scale(self.scale, r.fit, q, used_rows))
+                labels += [f"{r.name}|{q}|{v}" for v in lab]
+        v = np.concatenate(vals)
+        cells, inv = np.unique(np.array(labels, dtype=object), return_inverse=True)
+        N = np.zeros((len(v) + self.n_prior(), len(cells)))
+        N[np.arange(len(v)), inv] = v
+        keep = np.any(N != 0, axis=0)
+        return N[:, keep] if keep.any() else None
+
+    def _unfitted(self, x, got, h):
         a0, terms = got
         r0 = self.residual(x, prediction=self.model.as_measured(a0, x))
         N = np.empty((len(r0), len(terms)))
