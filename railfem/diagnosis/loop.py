@@ -54,9 +54,10 @@ from railfem.diagnosis import effects as library
 from railfem.diagnosis import residual as resid
 from railfem.diagnosis.data import DiagnosisData, prepare
 from railfem.diagnosis.evaluate import Evaluator
-from railfem.diagnosis.problem import BASE, Problem, noise_scale, table
+from railfem.diagnosis.problem import BASE, DISCREPANCY, Problem, noise_scale, table
 from railfem.diagnosis.refit import REFINE_STEPS, Outcome, joint_profile, profile_eta_r, refit
-from railfem.identify.base import default_base, describe_base
+from railfem.identify.base import ETA_R_RANGE, default_base, describe_base
+from railfem.identify.problem import table_scale
 from railfem.spec import TrackSpec, model_kind
 from railfem.standards import iec61260
 
@@ -156,8 +157,8 @@ def held_gate(ref: Outcome, cand: Outcome, pred_ref=None, pred_c=None) -> dict:
             continue
         ta, tb = table(t, pr[r.name]), table(t, pc[r.name])
         for q in ta:
-            a = np.asarray(ta[q]) / scale.get(q, 1.0)
-            b = np.asarray(tb[q]) / scale.get(q, 1.0)
+            a = np.asarray(ta[q]) / table_scale(scale, t, q, np.shape(ta[q]))
+            b = np.asarray(tb[q]) / table_scale(scale, t, q, np.shape(tb[q]))
             if q == "tdr":
                 cells = [(a[k, o], b[k, o]) for k in range(a.shape[0])
                          for o in range(a.shape[1])]
@@ -191,9 +192,11 @@ def held_gate(ref: Outcome, cand: Outcome, pred_ref=None, pred_c=None) -> dict:
            if len(d) > 1 and np.any(d != 0) else 1.0)
     p = min(1.0, 2 * min(p_t, p_w))  # either test, Bonferroni: still at most ALPHA
     red = 1 - mse_c / mse_ref if mse_ref > 0 else 0.0
+    # judged against noise plus discrepancy: the change must exceed the model-form one
+    disc = resid.beyond_discrepancy(ref.problem.model.data, pr, pc, scale, alpha=ALPHA)
     return {"blocks": int(len(d)), "mse_ref": mse_ref, "mse": mse_c, "reduction": red,
-            "t": tval, "p_t": p_t, "p_wilcoxon": p_w, "p": p,
-            "pass": bool(p < ALPHA and red >= MIN_GAIN)}
+            "t": tval, "p_t": p_t, "p_wilcoxon": p_w, "p": p, "discrepancy": disc,
+            "pass": bool(p < ALPHA and red >= MIN_GAIN and (disc is None or disc["pass"]))}
 
 
 def plausibility(o: Outcome) -> tuple[bool, str]:
@@ -305,11 +308,20 @@ def make_evaluator(cands, data: DiagnosisData, cache) -> Evaluator:
 
 
 def fit_base(data: DiagnosisData, model: str, spec0: TrackSpec, ev: Evaluator, *,
-             n_starts, workers, cache, seed, profile_final) -> tuple[Search, object]:
+             n_starts, workers, cache, seed, profile_final,
+             discrepancy=DISCREPANCY, reference=None) -> tuple[Search, object]:
     """Step 1: railfem.identify.fit on the first record's point mobility and decay rate (a
     start), then the base refit on all records, its rail loss factor profiled (beam
-    models). Returns the Search and the identify FitResult."""
+    models), its residuals scaled by noise plus the model-form ``discrepancy``
+    (railfem.diagnosis.problem.noise_scale). Returns the Search and the identify
+    FitResult. With a ``reference`` (railfem.diagnosis.reference.BaseReference) the base
+    starts at the reference's values and stays inside its bounds (no start fit: the
+    FitResult is None)."""
     from railfem.identify import fit as identify_fit
+
+    if reference is not None:
+        return base_from_reference(data, model, spec0, ev, reference,
+                                   profile_final=profile_final, discrepancy=discrepancy)
 
     start_target = data.records[0].fit  # point and decay rate (the fitter takes no NaN)
     if "transfer" in start_target.use:
@@ -321,7 +333,8 @@ def fit_base(data: DiagnosisData, model: str, spec0: TrackSpec, ev: Evaluator, *
                       slow_nodes=3 if beam else None, slow_refine=2 if beam else None)
     spec_b = spec0.replace(eta_r=fr.spec.rail.eta)
     x0 = np.array([math.log10(getattr(fr.spec.support, n)) for n in BASE])
-    scale = noise_scale(Problem(data=data, evaluator=ev, spec=spec_b, scale={}), x0)
+    scale = noise_scale(Problem(data=data, evaluator=ev, spec=spec_b, scale={}), x0,
+                        discrepancy)
     s = Search(data=data, model=model, ev=ev, spec=spec_b, scale=scale,
                profile_final=profile_final)
     base_o = refit(data, ev, spec_b, (), x0, scale)
@@ -331,6 +344,28 @@ def fit_base(data: DiagnosisData, model: str, spec0: TrackSpec, ev: Evaluator, *
     s.base = base_o
     s.pred_base = base_o.problem.predict(base_o.x)
     return s, fr
+
+
+def base_from_reference(data, model, spec0, ev, reference, *, profile_final,
+                        discrepancy) -> tuple[Search, None]:
+    """Step 1 against a reference section: the base refitted from the reference's values
+    (railfem.diagnosis.reference.BaseReference: spec, bounds) inside its bounds, the rail
+    loss factor profiled inside its range (beam models)."""
+    bounds = dict(reference.bounds)
+    spec_b = spec0.replace(**{n: reference.values[n] for n in BASE + ("eta_r",)})
+    x0 = np.array([math.log10(reference.values[n]) for n in BASE])
+    scale = noise_scale(Problem(data=data, evaluator=ev, spec=spec_b, scale={},
+                                bounds=bounds), x0, discrepancy)
+    s = Search(data=data, model=model, ev=ev, spec=spec_b, scale=scale,
+               profile_final=profile_final, bounds=bounds)
+    base_o = refit(data, ev, spec_b, (), x0, scale, bounds=bounds)
+    if s.profiles:
+        base_o = profile_eta_r(data, ev, spec_b, (), base_o, scale, max_steps=s.eta_r_steps,
+                               bounds=bounds)
+    s.spec = spec_b.replace(eta_r=base_o.eta_r)
+    s.base = base_o
+    s.pred_base = base_o.problem.predict(base_o.x)
+    return s, None
 
 
 def screen_single(s: Search, e) -> Outcome:
@@ -489,14 +524,20 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
              effects=None, spacing: float | None = None, pairs: bool = True,
              n_starts: int = 4, workers: int = 1, cache=False, seed: int = 0,
              profile_final: bool = True, max_pairs: int = 3,
-             data_options=None) -> Diagnosis:
+             data_options=None, discrepancy=DISCREPANCY, reference=None) -> Diagnosis:
     """Diagnose ``data`` (a HammerMeasurement, DecayRateMeasurement/Table, a list of them or
     DiagnosisData) with track model ``model``; ``effects``: names from the library
     (default all but those with ``screened=False``, e.g. random_support; "all": every
     one); ``base``: the spec whose other values are kept (default
     railfem.identify.base.default_base: the site preset on point supports, as ``railfem
     fit``); ``data_options``: to railfem.diagnosis.data.prepare (e.g. f_range=(50, 2000),
-    sensors=['head']). See the module docstring for the steps. A candidate that fails
+    sensors=['head']); ``discrepancy``: the model-form discrepancy the residuals are judged
+    with ('ensemble': the base's own discretisation variants, railfem.identify.discrepancy;
+    None: noise only; or a Discrepancy); ``reference``: a calibrated reference section
+    (railfem.diagnosis.reference.BaseReference; railfem.diagnosis.reference.diagnose
+    makes one from data or a fit): the base is held inside its bounds, so the residual
+    shows what differs. See the module docstring for the steps. A
+    candidate that fails
     (an exception in its screening, its pairs or its final refit) is logged and listed in
     ``Diagnosis.failures``; the run goes on without it."""
     t0 = time.perf_counter()
@@ -508,8 +549,9 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
 
     t = time.perf_counter()  # 1. base and 2. its residual
     s, fr = fit_base(data, model, spec0, ev, n_starts=n_starts, workers=workers, cache=cache,
-                     seed=seed, profile_final=profile_final)
-    res_before = resid.make_residual(data, s.pred_base)
+                     seed=seed, profile_final=profile_final, discrepancy=discrepancy,
+                     reference=reference)
+    res_before = resid.make_residual(data, s.pred_base, discrepancy=s.scale)
     repeats = resid.repeat_scatter(data)
     st_before = resid.structure_test(res_before, n_parameters=s.base.k, repeats=repeats)
     seconds["base"] = time.perf_counter() - t
@@ -528,7 +570,8 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
     chosen, chosen_row = choose(s, outcomes, rows)
     st_after = res_after = None
     if chosen is not None:
-        res_after = resid.make_residual(data, chosen.problem.predict(chosen.x))
+        res_after = resid.make_residual(data, chosen.problem.predict(chosen.x),
+                                        discrepancy=s.scale)
         st_after = resid.structure_test(res_after, n_parameters=chosen.k, repeats=repeats)
         chosen_row = dict(chosen_row, final_parameters=chosen.parameters(),
                           final_held_out=held_gate(s.base, chosen, pred_ref=s.pred_base))
@@ -546,7 +589,18 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
 
 
 def _explains(st: dict) -> bool:
-    return st["verdict"] == "noise" or st["structured_rms_db"] < resid.NEGLIGIBLE_DB
+    return (st["verdict"] in ("noise", "consistent")
+            or st["structured_rms_db"] < resid.NEGLIGIBLE_DB)
+
+
+def _left(st: dict) -> str:
+    """What the remaining residual is consistent with, in words."""
+    if st["verdict"] == "consistent" and st["structured_rms_db"] >= resid.NEGLIGIBLE_DB:
+        d = st["discrepancy"]
+        return (f"noise plus the model's own discretisation discrepancy (structured part "
+                f"{st['structured_rms_db']:.2f} dB, discrepancy {d['discrepancy_rms_db']:.2f} "
+                f"dB RMS, {st['structured_beyond_discrepancy_db']:.2f} dB beyond it)")
+    return f"noise (structured part {st['structured_rms_db']:.2f} dB)"
 
 
 def _failed(failures) -> str:
@@ -558,12 +612,18 @@ def _failed(failures) -> str:
 
 def decide(st_before, st_after, chosen, chosen_row, rows, failures=()) -> tuple[str, str]:
     """(verdict, plain statement). Verdicts: 'noise' (the base explains the data),
-    'explained', 'partly explained', 'unexplained'. Candidates rejected after their final
-    refit and candidates that failed are named in the statement."""
+    'consistent' (the base explains the data up to noise plus its model-form
+    discrepancy), 'explained', 'partly explained', 'unexplained'. Candidates rejected
+    after their final refit and candidates that failed are named in the statement."""
     fails = _failed(failures)
     late = [r for r in rows if r.get("final_rejected")]
     why = "".join(f"; {r['name']} passed the screening gates but not after its final "
                   f"refit: {r['final_rejected']}" for r in late)
+    if chosen is None and st_before["verdict"] == "consistent" and \
+            st_before["structured_rms_db"] >= resid.NEGLIGIBLE_DB:
+        return "consistent", ("the data are consistent with the model: the base model's "
+                              "residual is within " + _left(st_before) + "; no effect is "
+                              "claimed" + why + fails)
     if _explains(st_before) and chosen is None:
         return "noise", ("the base model explains the data: its residual is consistent with "
                          f"noise (p = {st_before['p']:.3g}, structured part "
@@ -577,9 +637,8 @@ def decide(st_before, st_after, chosen, chosen_row, rows, failures=()) -> tuple[
     red = chosen_row["final_held_out"].get("reduction") or 0.0
     if _explains(st_after):
         return "explained", (f"{chosen.name} explains the residual: held-out error down "
-                             f"{100 * red:.0f} %, remaining residual consistent with noise "
-                             f"(structured part {st_after['structured_rms_db']:.2f} dB)"
-                             + why + fails)
+                             f"{100 * red:.0f} %, remaining residual consistent with "
+                             + _left(st_after) + why + fails)
     return "partly explained", (f"{chosen.name} improves the fit (held-out error down "
                                 f"{100 * red:.0f} %) but structure remains (structured part "
                                 f"{st_after['structured_rms_db']:.2f} dB): no candidate fully "
