@@ -56,7 +56,7 @@ from railfem.diagnosis.data import DiagnosisData, prepare
 from railfem.diagnosis.evaluate import Evaluator
 from railfem.diagnosis.problem import BASE, DISCREPANCY, Problem, noise_scale, table
 from railfem.diagnosis.refit import REFINE_STEPS, Outcome, joint_profile, profile_eta_r, refit
-from railfem.identify.base import ETA_R_RANGE, default_base, describe_base
+from railfem.identify.base import default_base, describe_base
 from railfem.identify.problem import table_scale
 from railfem.spec import TrackSpec, model_kind
 from railfem.standards import iec61260
