@@ -41,24 +41,27 @@ FORMS = ("own", "cross")
 CROSS = {"h": 0.0075, "curved": False, "foot_rule": "nodes", "springs": 8, "rows": 4}
 
 
-def cross_mesh_file(h: float = CROSS["h"], curved: bool = CROSS["curved"]) -> str:
-    """Path of the cross-model section mesh (written once to a per-user temporary folder)."""
+def cross_mesh_file(h: float = CROSS["h"], curved: bool = CROSS["curved"],
+                    profile: str = "60E1") -> str:
+    """Path of the cross-model section mesh of ``profile`` (a RailSpec profile: '60E1' or a
+    modified '60E1:foot=F'), written once to a per-user temporary folder."""
     from railfem.rail import meshing
+    from railfem.rail.profiles import get_profile
 
     tag = "curved" if curved else "straight"
     folder = Path(os.environ.get("RAILFEM_BLIND_DIR", tempfile.gettempdir())) / \
         f"railfem-blind-{os.getuid() if hasattr(os, 'getuid') else 0}"
-    path = folder / f"60E1_h{h * 1e3:g}mm_{tag}.npz"
+    path = folder / f"{profile.replace(':', '_')}_h{h * 1e3:g}mm_{tag}.npz"
     if not path.exists():
         folder.mkdir(parents=True, exist_ok=True)
-        meshing.save_mesh(meshing.get_mesh("60E1", h, curved=curved), path)
+        meshing.save_mesh(meshing.get_mesh(get_profile(profile), h, curved=curved), path)
     return str(path)
 
 
 def cross_spec(spec):
     """``spec`` in the cross-model form (CROSS): another mesh, spring rule and count, and
     (for a pad of finite length) rows."""
-    rail = replace(spec.rail, mesh_file=cross_mesh_file())
+    rail = replace(spec.rail, mesh_file=cross_mesh_file(profile=spec.rail.profile))
     num = replace(spec.numerics, foot_rule=CROSS["foot_rule"], n_foot_springs=CROSS["springs"])
     out = spec.replace(rail=rail, numerics=num)
     if spec.pad_length > 0 and spec.kind.is_discrete:
