@@ -18,7 +18,7 @@ except PackageNotFoundError:  # running from a source tree that is not installed
 
 #: public name -> module that defines it
 _EXPORTS = {
-    "FRF": "frf", "Material": "materials", "SupportParameters": "track.supports",
+    "FRF": "response", "Material": "materials", "SupportParameters": "track.supports",
     "Point": "models", "decay_rate": "models", "foot": "models", "frf": "models",
     "head": "models", "receptance": "models",
     "ParameterSpace": "params",

@@ -24,7 +24,7 @@ import numpy as np
 
 from railfem import validators as v
 from railfem.conventions import DIRECTIONS
-from railfem.frf import FRF
+from railfem.response import FRF
 
 __all__ = [
     "DIRECTION_ALIASES",

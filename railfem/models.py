@@ -49,7 +49,7 @@ from .rail import profiles
 from .track import wfe as track
 from .rail import waveguide
 from .track.coupling import DiscreteKernel, PeriodicKernel, couple_discrete, couple_periodic
-from .frf import FRF
+from .response import FRF
 from .spec import RailSpec, TrackSpec
 from .validators import warn_once
 from .standards import en15461

@@ -136,7 +136,7 @@ def test_mesh_and_frf_files_go_through_the_one_writer(tmp_path, monkeypatch):
     old file and no temporary; a mesh is world-readable (shipped meshes)."""
     import numpy as np
 
-    from railfem.frf import FRF
+    from railfem.response import FRF
     from railfem.io.frf_csv import write_frf_csv
     from railfem.rail import meshing
 

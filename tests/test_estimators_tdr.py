@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from railfem.estimators import tdr
-from railfem.frf import FRF
+from railfem.response import FRF
 from railfem.measurement import HammerMeasurement, Sensor
 from railfem.standards import en15461
 from railfem.standards.iec61260 import third_octave_bands

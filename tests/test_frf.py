@@ -3,7 +3,7 @@ import os
 import numpy as np
 import pytest
 
-from railfem.frf import FRF
+from railfem.response import FRF
 from railfem.io.frf_csv import FRFFileError, read_frf_csv, write_frf_csv
 from railfem.standards.iec61260 import band_average, ninth_octave_grid, third_octave_bands
 

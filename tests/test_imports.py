@@ -15,7 +15,7 @@ from pathlib import Path
 HEAVY = ("gmsh", "pyvista", "vtk", "vtkmodules", "matplotlib")
 CORE = ("railfem", "railfem.rail.profiles", "railfem.rail.meshing", "railfem.rail.forms", "railfem.rail.waveguide",
         "railfem.rail.waves", "railfem.rail.section", "railfem.rail.mobility", "railfem.track.supports",
-        "railfem.track.beams", "railfem.frf", "railfem.standards", "railfem.standards.en15461",
+        "railfem.track.beams", "railfem.response", "railfem.standards", "railfem.standards.en15461",
         "railfem.standards.iec61260", "railfem.spec", "railfem.models",
         "railfem.params", "railfem.track.coupling", "railfem.track.kernelcache", "railfem.atomic")
 EDGE = ("railfem.plotting", "railfem.plotting.render", "railfem.jobs.common", "railfem.cli")

@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from railfem.frf import FRF
+from railfem.response import FRF
 from railfem.io import (FrequencyAxisError, MalformedFileError, MissingPositionError,
                         NonFiniteValueError, UnknownQuantityError, UnknownUnitError, read_dataset,
                         read_measurement, write_dataset)

@@ -5,7 +5,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from railfem.frf import FRF
+from railfem.response import FRF
 from railfem.io import (SBB_NIEDERWANGEN_COLUMNS, Channel, ColumnMapping, FrequencyAxisError,
                         MalformedFileError, MissingPositionError, NonFiniteValueError,
                         UnknownUnitError, read_decay_rate_table, read_frf_table,

@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from railfem.frf import FRF
+from railfem.response import FRF
 from railfem.measurement import (DecayRateMeasurement, DecayRateTable, HammerMeasurement,
                                  Metadata, Sensor, direction_name)
 from railfem.standards.en15461 import hammer_positions

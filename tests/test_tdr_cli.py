@@ -9,7 +9,7 @@ pytest.importorskip("matplotlib")
 
 from railfem import plotting  # noqa: E402
 from railfem.cli import main  # noqa: E402
-from railfem.frf import FRF  # noqa: E402
+from railfem.response import FRF  # noqa: E402
 from railfem.estimators import tdr  # noqa: E402
 from railfem.io import read_dataset, write_dataset  # noqa: E402
 from railfem.measurement import HammerMeasurement, Metadata, Sensor  # noqa: E402

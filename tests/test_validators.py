@@ -81,7 +81,7 @@ def test_track_command_refuses_a_missing_support_part(tmp_path, capsys, option, 
 
 
 def test_messages_of_profiles_meshes_and_frfs_show_plain_numbers():
-    from railfem.frf import FRF
+    from railfem.response import FRF
     from railfem.rail import meshing, profiles
 
     with pytest.raises(ValueError) as err:

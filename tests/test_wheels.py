@@ -13,7 +13,7 @@ from scipy import optimize, special
 
 from railfem.wheelrail import wheelfe
 from railfem.wheelrail import wheels
-from railfem.frf import FRF
+from railfem.response import FRF
 from railfem.io.frf_csv import write_frf_csv
 from railfem.io.wheel_frf import read_wheel_frf, write_wheel_frf
 

@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from railfem.conventions import QUANTITIES, QUANTITY_UNITS
-from railfem.frf import FRF
+from railfem.response import FRF
 from railfem.io.errors import (MalformedFileError, MissingPositionError, NonFiniteValueError,
                                UnknownQuantityError, UnknownUnitError, file_error)
 from railfem.io.text import check_frequency_axis, column, fmt, number, read_table, read_text

@@ -29,7 +29,7 @@ import numpy as np
 
 from railfem.atomic import atomic_path
 from railfem.conventions import QUANTITIES, QUANTITY_UNITS
-from railfem.frf import FRF
+from railfem.response import FRF
 
 __all__ = ["write_frf_csv", "read_frf_csv", "FRFFileError", "FORMAT_TAG"]
 

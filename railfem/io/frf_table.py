@@ -22,7 +22,7 @@ import numpy as np
 
 from railfem import validators as v
 from railfem.conventions import QUANTITIES
-from railfem.frf import FRF
+from railfem.response import FRF
 from railfem.io.errors import MissingPositionError, UnknownUnitError, file_error
 from railfem.io.text import check_frequency_axis, column, read_table
 from railfem.io.units import FREQUENCY_UNITS, parse_frf_unit

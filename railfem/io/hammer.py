@@ -9,7 +9,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from railfem.frf import FRF
+from railfem.response import FRF
 from railfem.io.errors import MissingPositionError
 from railfem.measurement import HammerMeasurement, Metadata, Sensor
 

@@ -7,7 +7,7 @@ per excitation force (denominator data type 13) on one frequency axis (abscissa 
 a file that states none needs ``unit=...``. Other record types (nodes, units, ...) are
 skipped; anything else is rejected with a named error.
 
-Records become an :class:`railfem.frf.FRF` with response labels ``node<rsp_node>:<axis>``
+Records become an :class:`railfem.response.FRF` with response labels ``node<rsp_node>:<axis>``
 and force labels ``node<ref_node>:<axis>``. UFF directions carry a sign (-3 = -z); values
 are multiplied by ``sign(rsp_dir) * sign(ref_dir)`` so that both point along the positive
 axis, as railfem's FRFs do. Hammer geometry is not part of a type-58 record: give it with
@@ -22,7 +22,7 @@ import numpy as np
 
 from railfem import validators as v
 from railfem.conventions import QUANTITIES
-from railfem.frf import FRF
+from railfem.response import FRF
 from railfem.io.errors import (FrequencyAxisError, MalformedFileError, MissingPositionError,
                                NonFiniteValueError, UnknownQuantityError, UnknownUnitError,
                                file_error)

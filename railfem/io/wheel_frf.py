@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..frf import FRF
+from ..response import FRF
 from ..wheelrail.wheels import TabulatedWheel
 from .frf_csv import read_frf_csv, write_frf_csv
 

@@ -227,7 +227,7 @@ def run_track(spec: TrackSpec, out_dir, *, job: JobSettings | None = None, cache
 def _write_outputs(out, spec, f, pos, hammer_x, xs, transfer, along, span_fx, along_x,
                    along_frequencies, marks, cut_on, point, lateral=None) -> dict:
     from .. import plotting
-    from ..frf import FRF
+    from ..response import FRF
     from ..io.frf_csv import write_frf_csv
 
     paths = {}

@@ -241,7 +241,7 @@ def check_frequency(frequency) -> np.ndarray:
 def free_mobility(guide: Waveguide, frequency, force: Location, response: list[Location], x,
                   **kwargs):
     """Free-rail mobility as an FRF: outputs are (response, x) pairs, input is the force."""
-    from ..frf import FRF
+    from ..response import FRF
 
     f = check_frequency(frequency)
     x = np.atleast_1d(np.asarray(x, dtype=float))
