@@ -233,6 +233,13 @@ def diagnose_args(p: argparse.ArgumentParser) -> None:
                    help="multi-start points of the base fit (default 4)")
     p.add_argument("--workers", type=count, default=1, metavar="N",
                    help="parallel processes of the base fit (default 1)")
+    p.add_argument("--reference", type=Path, default=None, metavar="REF",
+                   help="diagnose against a reference section: REF a dataset or decay-rate "
+                        "table of it (rows of the same date where the table has them), or "
+                        "its fit.json (railfem fit) or diagnosis.json; the base is calibrated "
+                        "on REF and held there, so the residual shows what differs")
+    p.add_argument("--reference-select", default=None, metavar="K=V,...",
+                   help="table REF: its rows, e.g. section=A (as --select)")
     p.add_argument("--out", type=Path, default=Path("railfem-output/diagnose"), metavar="DIR",
                    help="output folder (default railfem-output/diagnose)")
 
@@ -251,6 +258,7 @@ def diagnose_run(args) -> int:
                      group=args.group, spacing=args.spacing, effects=effects,
                      n_starts=args.starts, workers=args.workers, passby=passby,
                      f_range=f_range_from_args(args), base=base_from_args(args),
+                     reference=args.reference, reference_select=args.reference_select,
                      command=" ".join(sys.argv))
     for g in s["groups"]:
         lines = g.get("summary") or [g["statement"]]

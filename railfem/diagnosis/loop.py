@@ -56,7 +56,7 @@ from railfem.diagnosis.data import DiagnosisData, prepare
 from railfem.diagnosis.evaluate import Evaluator
 from railfem.diagnosis.problem import BASE, DISCREPANCY, Problem, noise_scale, table
 from railfem.diagnosis.refit import REFINE_STEPS, Outcome, joint_profile, profile_eta_r, refit
-from railfem.identify.base import default_base, describe_base
+from railfem.identify.base import ETA_R_RANGE, default_base, describe_base
 from railfem.identify.problem import table_scale
 from railfem.spec import TrackSpec, model_kind
 from railfem.standards import iec61260
@@ -94,6 +94,8 @@ class Diagnosis:
     skipped: dict = field(default_factory=dict)
     failures: list = field(default_factory=list)  # {candidate, stage, error}
     base_model: str = ""
+    reference: object = None  # railfem.diagnosis.reference.BaseReference, or None
+    changed: list = field(default_factory=list)  # base parameters changed against it
 
     @property
     def ranking(self) -> list[str]:
@@ -248,6 +250,7 @@ class Search:
     pred_base: dict | None = None
     profile_final: bool = True
     failures: list = field(default_factory=list)
+    bounds: dict | None = None  # base bounds {name: (low, high)} (a reference section's)
 
     def fail(self, candidate: str, stage: str, exc: BaseException) -> None:
         """Record (and log) that ``candidate`` failed at ``stage``: the run goes on."""
@@ -329,7 +332,8 @@ def fit_base(data: DiagnosisData, model: str, spec0: TrackSpec, ev: Evaluator, *
                                                        if q != "transfer"))
     beam = model_kind(model).is_beam
     fr = identify_fit(start_target, model, parameters=BASE + ("eta_r",), base=spec0,
-                      n_starts=n_starts, workers=workers, cache=cache, profiles=(), seed=seed,
+                      bounds={"eta_r": ETA_R_RANGE}, n_starts=n_starts, workers=workers,
+                      cache=cache, profiles=(), seed=seed,
                       slow_nodes=3 if beam else None, slow_refine=2 if beam else None)
     spec_b = spec0.replace(eta_r=fr.spec.rail.eta)
     x0 = np.array([math.log10(getattr(fr.spec.support, n)) for n in BASE])
@@ -372,15 +376,16 @@ def screen_single(s: Search, e) -> Outcome:
     """Step 3 for one effect: refitted with the base parameters; with a beam model the rail
     loss factor profiled (not for random effects: only if chosen), and a kernel grid (pad
     length) profiled jointly with it when the candidate already beats the base."""
-    o = refit(s.data, s.ev, s.spec, (e,), s.x_base, s.scale,
+    o = refit(s.data, s.ev, s.spec, (e,), s.x_base, s.scale, bounds=s.bounds,
               grid_values=grid_values(e, s.data, s.model), refine_steps=s.refine_steps)
     if s.profiles and e.prior is None:
-        o = profile_eta_r(s.data, s.ev, s.spec, (e,), o, s.scale, max_steps=6, refine=False)
+        o = profile_eta_r(s.data, s.ev, s.spec, (e,), o, s.scale, max_steps=6, refine=False,
+                          bounds=s.bounds)
         if e.kind == "spec" and any(n != "index" for n in e.grid) and o.bic < s.base.bic:
             # a kernel grid (pad length) trades against the rail loss: profile both
             # (tens of kernels: only for a candidate that already beats the base)
             o2 = joint_profile(s.data, s.ev, s.spec, e, o, s.scale,
-                               grid_values(e, s.data, s.model))
+                               grid_values(e, s.data, s.model), bounds=s.bounds)
             o = o2 if o2.cost < o.cost else o
     return o
 
@@ -433,10 +438,10 @@ def screen_pairs(s: Search, outcomes: dict, rows: list, max_pairs: int) -> None:
             try:
                 o = refit(s.data, s.ev, s.spec, (ea, eb), s.x_base, s.scale,
                           grid_values=pair_grid_values(ea, eb, s.data, s.model),
-                          refine_steps=s.refine_steps)
+                          refine_steps=s.refine_steps, bounds=s.bounds)
                 if s.profiles:
                     o = profile_eta_r(s.data, s.ev, s.spec, (ea, eb), o, s.scale,
-                                      max_steps=6, refine=False)
+                                      max_steps=6, refine=False, bounds=s.bounds)
                 gate = held_gate(ref, o)
                 ok, why = plausibility(o)
                 row = _row(o, ref, s.base, gate, ok, why)
@@ -505,10 +510,11 @@ def final_refit(s: Search, chosen: Outcome) -> Outcome:
     grid_fix = {k: (v,) for k, v in chosen.grid.items()}
     spec_c = s.spec.replace(eta_r=chosen.eta_r)
     start = refit(s.data, s.ev, spec_c, chosen.effects, s.x_base, s.scale,
-                  grid_values=grid_fix, refine=False, x_start=chosen.x, unfitted=False)
+                  grid_values=grid_fix, refine=False, x_start=chosen.x, unfitted=False,
+                  bounds=s.bounds)
     start.grid_profiles = chosen.grid_profiles
     return profile_eta_r(s.data, s.ev, s.spec, chosen.effects, start, s.scale,
-                         max_steps=s.eta_r_steps)
+                         max_steps=s.eta_r_steps, bounds=s.bounds)
 
 
 def base_of(data: DiagnosisData, model: str, base: TrackSpec | None = None) -> TrackSpec:
@@ -585,7 +591,7 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
                      candidates=rows, chosen=chosen, chosen_row=chosen_row, verdict=verdict,
                      statement=statement, structure_after=st_after, residual_after=res_after,
                      seconds=seconds, skipped=skipped, failures=s.failures,
-                     base_model=describe_base(s.spec))
+                     base_model=describe_base(s.spec), reference=reference)
 
 
 def _explains(st: dict) -> bool:

@@ -23,6 +23,7 @@ import numpy as np
 
 from railfem.identify import discrepancy as model_form
 from railfem.identify import problem as core
+from railfem.identify.base import ETA_R_RANGE, eta_r_prior
 from railfem.identify.fit import FIT_BOUNDS
 from railfem.identify.problem import Box, Prediction, table
 from railfem.params import Parameter
@@ -141,7 +142,12 @@ class EffectModel:
         mean)."""
         th = self.thetas(x)
         return [np.asarray(e.prior(th[e.name]), dtype=float) for e in self.effects
-                if e.prior is not None]
+                if e.prior is not None] + [self.eta_r_prior()]
+
+    def eta_r_prior(self) -> np.ndarray:
+        """The base rail loss factor's prior entry (railfem.identify.base.eta_r_prior; its
+        range ``bounds['eta_r']``, default ETA_R_RANGE): 0 inside the range."""
+        return eta_r_prior(self.spec.rail.eta, (self.bounds or {}).get("eta_r", ETA_R_RANGE))
 
     @property
     def analytic(self) -> bool:

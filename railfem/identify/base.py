@@ -26,8 +26,39 @@ of being folded silently into kp and eta_r. Point supports are also the publishe
 configuration the independent implementations use. The point load's mesh dependence of the
 rail-on-pad resonance is a discretisation choice, accounted for as model-form discrepancy,
 not hidden behind a fixed footprint.
+
+**The rail loss factor's prior range** (ETA_R_RANGE, entered by eta_r_prior as a prior
+entry of every diagnosis problem): a supported rail without added damping has a loss
+factor between 0.005 and 0.05. Sources:
+
+* Thompson, D. J. (2009), *Railway Noise and Vibration: Mechanisms, Modelling and Means
+  of Control*, Elsevier: the material damping of rail steel alone is of order 1e-4; the
+  track models use a rail loss factor of order 0.01-0.02 for a rail on its supports, the
+  rest of the damping coming from the fastenings (clips, pad contact).
+* Vincent, N., Bouvet, P., Thompson, D. J., Gautier, P. E. (1996), Theoretical
+  optimization of track components to reduce rolling noise, J. Sound Vib. 193(1),
+  161-171, and Thompson, D. J., Jones, C. J. C., Waters, T. P., Farrington, D. (2007), A
+  tuned damping device for reducing noise from railway track, Applied Acoustics 68(1),
+  43-57: added rail damping (tuned absorbers) raises the decay rates several-fold above a
+  few hundred Hz; a base without a damper effect would report it as a rail loss factor
+  several times the untreated rail's.
+* Wu, T. X., Thompson, D. J. (1999), A double Timoshenko beam model for vertical
+  vibration analysis of railway track at high frequencies, J. Sound Vib. 224(2), 329-348:
+  a rail loss factor of the same order (0.01-0.02) in a fitted track model.
+* The Table 1 tracks of railfem (railfem.track.supports.TABLE1): 0.01-0.05.
+
+Inside the range the data alone decide (the prior entry is 0); outside it the entry
+grows by one per ETA_R_PRIOR_WIDTH decades (0.001: a step of the rail-loss profile's
+lattice, 0.05 decades, beyond the range costs 2500, what a strong damper's misfit gains;
+with 0.02 decades a base on data of heavy lossy dampers still went to 0.079): a bound
+with smooth edges. Extra damping must be credited to an effect (rail_damper,
+foot_damping) instead of being folded into eta_r.
 """
 from __future__ import annotations
+
+import math
+
+import numpy as np
 
 from railfem.spec import TrackSpec, model_kind, preset
 
@@ -35,6 +66,22 @@ BASE_MODEL = "wfe-discrete"
 BASE_PRESET = "site"
 BASE_PAD_LENGTH = 0.0  # m: point supports (see the module docstring)
 BASE_PARAMETERS = ("kp", "eta_p", "kb", "eta_b", "eta_r")
+#: plausible rail loss factor of a supported rail without added damping (module docstring)
+ETA_R_RANGE = (0.005, 0.05)
+ETA_R_PRIOR_WIDTH = 0.001  # decades outside ETA_R_RANGE per unit of the prior entry
+
+
+def eta_r_prior(eta_r: float, bounds=ETA_R_RANGE,
+                width: float = ETA_R_PRIOR_WIDTH) -> np.ndarray:
+    """The prior entry of the rail loss factor ``eta_r`` (dimensionless, one residual entry
+    of the fit): 0 inside ``bounds`` (the data decide alone), else the distance to the
+    range in decades over ``width`` (a flat-bottomed prior with steep Gaussian tails). One
+    entry always, so that fits at different rail loss factors have residuals of one
+    length."""
+    lo, hi = (math.log10(b) for b in bounds)
+    le = math.log10(float(eta_r))
+    d = lo - le if le < lo else (le - hi if le > hi else 0.0)
+    return np.array([d / width])
 
 
 def default_base(model: str = BASE_MODEL, *, preset_name: str = BASE_PRESET,

@@ -1,32 +1,96 @@
-"""Attachments on the rail: a tuned rail damper, a mass-spring-damper per support
-(railfem.track.supports.RailAbsorber).
+"""Added rail damping: rail dampers, tuned mass-spring-dampers on the rail in every span
+(railfem.track.supports.RailAbsorber), one or several tuned over a band.
 
-Rail dampers add a tuned resonator to each span; around its tuning frequency the decay
-rate rises and the transfers far away drop. Modelled at each support's footprint (in
-parallel with the support), not at mid-span: below ~2 kHz the bending wavelength is long
-against the 0.3 m between the two places; this simplification is stated in every report."""
-from dataclasses import replace
+Real rail dampers are steel masses in an elastomer clipped to the rail web and foot; one
+tuned resonator damps around its frequency, several masses tuned apart spread the added
+loss over a band (typically a few hundred Hz to 2 kHz), and a lossy elastomer (eta_a of
+0.3 and more) makes that a smooth, frequency-dependent added loss. The effect describes
+both: ``count`` (AbsorberBand.count, 3) absorbers of mass/count each at fa/s, fa, fa s,
+s = ``spread`` (a grid: 1 is the single tuned absorber; 1.5, 2.25: bands of a ratio s^2
+between the lowest and the highest tuning) with one loss factor. It competes with the base
+rail loss factor, whose prior range (railfem.identify.base.ETA_R_RANGE) keeps the extra
+damping from being folded into it.
+
+Modelled at each support's footprint (in parallel with the support), not at mid-span:
+below ~2 kHz the bending wavelength is long against the 0.3 m between the two places; this
+simplification is stated in every report."""
+from dataclasses import dataclass, replace
+
+import numpy as np
 
 from railfem.diagnosis.effects import Effect, EffectParameter
 from railfem.track.supports import RailAbsorber
 
+SPREADS = (1.0, 1.5, 2.25)  # ratio between neighbouring tunings (1: one tuned absorber)
+COUNT = 3
+
+
+@dataclass(frozen=True, kw_only=True)
+class AbsorberBand(RailAbsorber):
+    """``count`` tuned absorbers of mass/count each (kg), tuned at fa s^k (Hz), k from
+    -(count-1)/2 to (count-1)/2, s = ``spread`` >= 1 (1: one tuned absorber of the whole
+    mass), one loss factor eta; in parallel with the support as a RailAbsorber."""
+
+    spread: float = 1.0
+    count: int = COUNT
+
+    def __post_init__(self):
+        super().__post_init__()
+        if not (np.isfinite(self.spread) and self.spread >= 1.0):
+            raise ValueError(f"AbsorberBand.spread = {self.spread!r}: give a ratio >= 1")
+        if int(self.count) != self.count or self.count < 1:
+            raise ValueError(f"AbsorberBand.count = {self.count!r}: give an integer >= 1")
+
+    @property
+    def tunings(self) -> np.ndarray:
+        """The absorbers' tuning frequencies (Hz)."""
+        k = np.arange(self.count) - (self.count - 1) / 2
+        return self.fa * self.spread ** k
+
+    def band(self) -> tuple[float, float]:
+        """(low, high) Hz where the added damping acts: the lowest and highest tuning, each
+        widened by its half-power width (fa (1 -+ eta/2))."""
+        f = self.tunings
+        return float(f[0] * (1 - self.eta / 2)), float(f[-1] * (1 + self.eta / 2))
+
+    def stiffness(self, omega: np.ndarray) -> np.ndarray:
+        if self.spread == 1.0:
+            return RailAbsorber(mass=self.mass, fa=self.fa, eta=self.eta).stiffness(omega)
+        m = self.mass / self.count
+        return sum(RailAbsorber(mass=m, fa=float(fk), eta=self.eta).stiffness(omega)
+                   for fk in self.tunings)
+
+
+def absorber(theta) -> AbsorberBand:
+    """The AbsorberBand of a parameter set {mass, fa, eta_a, spread}."""
+    return AbsorberBand(mass=float(theta["mass"]), fa=float(theta["fa"]),
+                        eta=float(theta["eta_a"]), spread=float(theta.get("spread", 1.0)))
+
+
+def band(theta) -> tuple[float, float]:
+    """(low, high) Hz of the added damping of a parameter set (AbsorberBand.band)."""
+    return absorber(theta).band()
+
 
 def apply(spec, theta, record=None):
-    a = RailAbsorber(mass=float(theta["mass"]), fa=float(theta["fa"]),
-                     eta=float(theta["eta_a"]))
-    return spec.replace(support=replace(spec.support, absorber=a))
+    return spec.replace(support=replace(spec.support, absorber=absorber(theta)))
 
 
 EFFECT = Effect(
-    name="rail_damper", title="tuned rail damper (mass-spring-damper per support)",
+    name="rail_damper",
+    title="added rail damping (rail dampers: tuned absorbers per span, one or a band)",
     kind="spec", apply=apply,
-    meaning="a resonator attached to the rail in every span absorbs vibration around its "
-            "tuning frequency (modelled at the support positions)",
+    meaning="rail dampers add damping to the rail over a band: one tuned resonator or "
+            f"{COUNT} tuned apart (mass/{COUNT} each at fa/s, fa, fa s) per span, one loss "
+            "factor; the decay rate rises over that band, the transfers far away drop "
+            "(modelled at the support positions)",
     parameters=(
         EffectParameter(name="mass", unit="kg", lower=0.2, upper=40.0, log=True, start=3.0,
-                        meaning="absorber mass per support"),
+                        meaning="absorber mass per support (all the absorbers of a span)"),
         EffectParameter(name="fa", unit="Hz", lower=100.0, upper=4000.0, log=True,
-                        start=800.0, meaning="tuning frequency"),
+                        start=800.0, meaning="centre tuning frequency (geometric mean of "
+                                             "the tunings)"),
         EffectParameter(name="eta_a", unit="-", lower=0.03, upper=2.0, log=True, start=0.3,
-                        meaning="loss factor of the absorber's elastic layer"),
-    ))
+                        meaning="loss factor of the absorbers' elastic layer"),
+    ),
+    grid={"spread": SPREADS})
