@@ -109,6 +109,9 @@ def applicable(effect, data: DiagnosisData, model: str):
             return False, f"needs discrete supports (model {model})"
         if need == "deviations" and library.deviation_refusal(model_kind(model)):
             return False, library.deviation_refusal(model_kind(model))
+        if need == "wfe" and not model_kind(model).is_wfe:
+            return False, (f"changes the rail's cross-section, which the beam model {model} "
+                           "does not have: diagnose with a WFE model for this effect")
         if need == "hammer" and "hammer" not in data.kinds:
             return False, "needs hammer FRFs (the data are decay rates only)"
         if need.startswith("covariate:"):
