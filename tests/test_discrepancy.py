@@ -185,3 +185,23 @@ def test_cross_model_clean_wfe_data_are_consistent_with_the_model(seed):
     for n in ("kp", "eta_p", "kb", "eta_b"):
         p = _base_parameter(d, n)
         assert p["ci95"][0] <= g.TRUTH[n] <= p["ci95"][1], p
+
+
+def test_a_change_within_the_discrepancy_does_not_pass_the_gate(small_data):
+    """A candidate that moves the prediction by 0.3 dB where the discrepancy is 1 dB is
+    what another discretisation could do: not beyond it; by 4 dB it is."""
+    from railfem.identify.problem import Prediction
+
+    a = {r.name: Evaluator().receptance(g.truth_spec(MODEL), r) for r in small_data.records}
+    disc = D.Discrepancy(index=np.arange(-13, 7), variance={
+        q: np.ones(20) for q in ("point", "transfer", "tdr")})
+
+    def pred(gain_db):
+        k = 10 ** (gain_db / 20)
+        return {n: Prediction(level=k * v, power=k * v) for n, v in a.items()}
+
+    small = R.beyond_discrepancy(small_data, pred(0.0), pred(0.3), disc)
+    big = R.beyond_discrepancy(small_data, pred(0.0), pred(4.0), disc)
+    assert not small["pass"] and small["ratio"] == pytest.approx(0.09, rel=0.05)
+    assert big["pass"] and big["ratio"] == pytest.approx(16.0, rel=0.05)
+    assert R.beyond_discrepancy(small_data, pred(0.0), pred(4.0), None) is None
