@@ -5,18 +5,42 @@
   started by the tests (examples, import checks) inherit these variables.
 * Headless VTK: the EGL render window. railfem.plotting.render already selects it when there is
   no DISPLAY; setting it here covers tests that import pyvista directly.
+* One kernel cache for the whole run, never the user's: ``RAILFEM_CACHE`` points at a fresh
+  temporary folder (removed at the end), so a kernel several tests need is built once per run
+  and a stale or foreign kernel can never make a test pass. Subprocesses (the CLI, examples)
+  and pytest-xdist workers inherit it. ``RAILFEM_TEST_CACHE=<folder>`` keeps the test kernels
+  in that folder instead, across runs (a warm cache for repeated local runs).
 
-``setdefault``: a value given on the command line always wins.
+``setdefault``: a thread count given on the command line always wins.
+
+``--cpu-durations=N`` lists the N tests that used the most CPU (this process and the
+subprocesses it waited for, setup and teardown included) and the total: on a shared machine
+the wall times of ``--durations`` measure the load as much as the tests.
 """
 import os
+import shutil
+import tempfile
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
     os.environ.setdefault("VTK_DEFAULT_OPENGL_WINDOW", "vtkEGLRenderWindow")
 
+_OWNER = "RAILFEM_TEST_CACHE_OWNER"  # pid of the process that made the temporary cache
+if os.environ.get("RAILFEM_TEST_CACHE"):
+    os.environ["RAILFEM_CACHE"] = os.environ["RAILFEM_TEST_CACHE"]
+elif not os.environ.get(_OWNER):  # not an xdist worker of a run that made one already
+    os.environ["RAILFEM_CACHE"] = tempfile.mkdtemp(prefix="railfem-test-cache-")
+    os.environ[_OWNER] = str(os.getpid())
+
 
 import pytest  # noqa: E402  (after the environment above)
+
+
+def pytest_unconfigure(config):
+    """The temporary kernel cache goes with the process that made it."""
+    if os.environ.get(_OWNER) == str(os.getpid()) and not os.environ.get("RAILFEM_TEST_CACHE"):
+        shutil.rmtree(os.environ.get("RAILFEM_CACHE", ""), ignore_errors=True)
 
 
 @pytest.fixture(autouse=True)
@@ -26,3 +50,55 @@ def _fresh_warn_once():
 
     reset_warn_once()
     yield
+
+
+# --- CPU time per test -------------------------------------------------------------------
+
+def pytest_addoption(parser):
+    parser.addoption("--cpu-durations", type=int, default=None, metavar="N",
+                     help="list the N tests using the most CPU time (0: all) and the total")
+
+
+def _cpu() -> float:
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_makereport(item, call):
+    # makereport runs right after each phase (setup, call, teardown): the CPU used since the
+    # previous phase ended belongs to this one
+    now = _cpu()
+    start = getattr(item, "_cpu_mark", None)
+    item._cpu_mark = now
+    outcome = yield
+    if start is not None:
+        outcome.get_result().user_properties.append(("cpu_s", now - start))
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    item._cpu_mark = _cpu()
+    yield
+
+
+_CPU: dict[str, float] = {}
+
+
+def pytest_runtest_logreport(report):
+    for name, value in report.user_properties:
+        if name == "cpu_s":
+            _CPU[report.nodeid] = _CPU.get(report.nodeid, 0.0) + value
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    n = config.getoption("--cpu-durations")
+    if n is None or not _CPU:
+        return
+    rows = sorted(_CPU.items(), key=lambda kv: -kv[1])
+    tr = terminalreporter
+    tr.write_sep("=", f"CPU time per test (total {sum(_CPU.values()):.1f} s over "
+                      f"{len(_CPU)} tests; load average {os.getloadavg()[0]:.1f})")
+    for nodeid, seconds in rows[:n] if n > 0 else rows:
+        tr.write_line(f"{seconds:8.2f}s  {nodeid}")
+
