@@ -286,7 +286,8 @@ def receptance(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE
     sep = rx[:, None] - fx[None, :]
     if kind.is_beam:
         a = beams.continuous_track_receptance(beam_section(spec.rail), spec.support,
-                                              spec.spacing, 2 * np.pi * f, sep.ravel())
+                                              spec.spacing, 2 * np.pi * f, sep.ravel(),
+                                              load_length=spec.numerics.load_length)
         return np.repeat(a.reshape(len(f), 1, *sep.shape), len(outputs), axis=1)
     rail = _rail_of(spec)
     u, inv = np.unique(np.round(sep, 12), return_inverse=True)

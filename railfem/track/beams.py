@@ -306,15 +306,42 @@ def timoshenko_wavenumbers(section: BeamSection, omega, foundation=0.0) -> np.nd
     return k
 
 
-def supported_beam_receptance(section: BeamSection, omega, x, foundation) -> np.ndarray:
+def supported_beam_receptance(section: BeamSection, omega, x, foundation, *,
+                              load_length: float = 0.0) -> np.ndarray:
     """Receptance (m/N) of an infinite beam on a continuous foundation, force at x = 0.
 
     ``foundation``: stiffness per unit length (N/m^2, complex), scalar or omega-shaped.
-    Result shape omega.shape + x.shape; symmetric in x.
+    ``load_length`` (m): the force is spread uniformly over that length centred on x = 0
+    (the closed-form average of the point-force receptance over the patch, as in the
+    discrete models); 0 is a point force. Result shape omega.shape + x.shape; symmetric in x.
     """
     w = _as_omega(omega, allow_zero=True)
     k, res = _waves(section, w, foundation)
-    return _green(k, res, np.asarray(x, dtype=float))
+    x = np.asarray(x, dtype=float)
+    if load_length == 0:
+        return _green(k, res, x)
+    if not (np.isfinite(load_length) and load_length > 0):
+        raise ValueError(f"load_length must be a finite length >= 0 (m), got {load_length:g}")
+    return _spread_green(k, res, x, load_length)
+
+
+def _spread_green(k: np.ndarray, res: np.ndarray, x: np.ndarray, load_length: float) -> np.ndarray:
+    """``_green`` averaged over a force spread uniformly over ``load_length`` = L centred on
+    0, shape k.shape[:-1] + x.shape. Closed form of (1/L) int exp(-i k |x - s|) ds: outside
+    the patch (|x| >= L/2) exp(-i k |x|) 2 sin(k L/2) / (k L); inside it
+    -(expm1(-i k (L/2 + x)) + expm1(-i k (L/2 - x))) / (i k L)."""
+    xa = np.abs(x)
+    lead = k.shape[:-1]
+    kk = k.reshape(lead + (1,) * xa.ndim + (2,))
+    rr = res.reshape(kk.shape)
+    half = load_length / 2
+    xx = xa[..., None]
+    with np.errstate(over="ignore", invalid="ignore"):
+        outside = np.exp(-1j * kk * xx) * np.sin(kk * half) / (kk * half)
+        inside = -(np.expm1(-1j * kk * (half + xx)) + np.expm1(-1j * kk * (half - xx))) / (
+            1j * kk * load_length)
+    kernel = np.where(xx >= half, outside, inside)
+    return -1j * np.sum(rr * kernel, axis=-1)
 
 
 def free_beam_receptance(section: BeamSection, omega, x) -> np.ndarray:
@@ -329,10 +356,12 @@ def free_beam_receptance(section: BeamSection, omega, x) -> np.ndarray:
 
 
 def continuous_track_receptance(section: BeamSection, support_params: SupportParameters,
-                                spacing: float, omega, x) -> np.ndarray:
+                                spacing: float, omega, x, *,
+                                load_length: float = 0.0) -> np.ndarray:
     """Receptance (m/N) of an infinite beam on the continuous two-layer support.
 
     The support of METHOD.md section 2 smeared along the rail: s = K_s(omega) / spacing.
+    The force is spread over ``load_length`` (m, 0 a point; supported_beam_receptance).
     Shape omega.shape + x.shape. omega = 0 is allowed (static beam on elastic foundation).
     """
     w = _as_omega(omega, allow_zero=True)
@@ -340,7 +369,7 @@ def continuous_track_receptance(section: BeamSection, support_params: SupportPar
     if np.any(~np.isfinite(s)):
         raise ValueError("continuous support stiffness is infinite (rigid pad and ballast?): "
                          "a rigidly supported continuous beam does not move")
-    return supported_beam_receptance(section, w, x, s)
+    return supported_beam_receptance(section, w, x, s, load_length=load_length)
 
 
 def discrete_kernel(section: BeamSection, spring_x, omega, force_x, response_x, *,
