@@ -98,6 +98,34 @@ def test_mirror_split_with_longitudinal_springs_equals_dense_solve(rail):
     assert np.abs(split - dense).max() < 1e-9 * np.abs(dense).max()
 
 
+
+def test_family_split_equals_full_dense_solve(rail):
+    """A lateral load loads springs on both symmetry families of the rail: couple_discrete
+    solves them as two systems (spring_families: six columns each for four springs in
+    three directions). Against the whole system (I + K alpha_ss) F = K alpha_sP solved
+    here in one piece from the kernel's arrays."""
+    g, _, lat = rail
+    springs = track.foot_springs(g, 4, rule="midpoint", directions="zyx")
+    lay = supports.uniform_layout(SITE, 0.6, 5)
+    f = np.array([120.0, 700.0])
+    kernel = track.discrete_kernel(g, springs, lay.springs().x, f, load=lat, outputs=[lat],
+                                   force_x=[0.0, 0.3], response_x=[0.1, -0.5])
+    groups = coupling.spring_families(kernel.ss)
+    assert sorted(len(c) for c in groups) == [6, 6]
+    K = track.spring_stiffness(lay, 2 * np.pi * f, kernel)
+    got = coupling.couple_discrete(kernel, K)
+    n_s, n_p, n_rx, n_fx = kernel.shape
+    d = kernel.spring_direction
+    for i in range(len(f)):
+        k = (K[i][:, d] * kernel.spring_weight[None, :]).ravel()  # set-major springs
+        A = kernel.ss[i][kernel.ss_index].transpose(0, 2, 1, 3).reshape(n_s * n_p, -1)
+        B = kernel.sP[i][kernel.sP_index].transpose(0, 2, 1).reshape(n_s * n_p, n_fx)
+        F = np.linalg.solve(np.eye(n_s * n_p) + k[:, None] * A, k[:, None] * B)
+        G = kernel.rs[i][kernel.rs_index]  # (rx, s, o, p)
+        want = kernel.rP[i][kernel.rP_index][..., 0] - np.einsum(
+            "rsp,spf->rf", G[:, :, 0, :], F.reshape(n_s, n_p, n_fx))
+        assert np.abs(got[i, 0] - want).max() < 1e-9 * np.abs(want).max()
+
 @pytest.mark.parametrize("directions", ["zy", "zyx"])
 def test_reciprocity_vertical_lateral(rail, directions):
     """Y_AB(x_r, x_f) = Y_BA(x_f, x_r) between an off-centre vertical load A and a lateral

@@ -182,6 +182,41 @@ def _solve_mirrored(plan, ssr, a, b, rhs):
     return F
 
 
+def spring_families(ss: np.ndarray, tol: float = 1e-12) -> list[np.ndarray]:
+    """The springs of a set (indices into n_p) grouped by the symmetry family of the rail
+    they act on: the free-rail receptance between springs of different families (e.g. a
+    lateral sum and a vertical sum of a mirror pair) vanishes but for round-off, so the
+    coupling splits into one independent system per group. ss: (nf, n_u, n_p, n_p); two
+    springs are linked when their receptance exceeds ``tol`` times the largest."""
+    n_p = ss.shape[-1]
+    if n_p < 2:
+        return [np.arange(n_p)]
+    link = np.abs(ss).max(axis=(0, 1)) > tol * np.abs(ss).max()
+    link = link | link.T
+    group = np.full(n_p, -1)
+    for start in range(n_p):
+        if group[start] >= 0:
+            continue
+        group[start], stack = start, [start]
+        while stack:
+            q = stack.pop()
+            for r in np.flatnonzero(link[q] & (group < 0)):
+                group[r] = start
+                stack.append(r)
+    return [np.flatnonzero(group == g) for g in np.unique(group)]
+
+
+def _family_kernel(kernel: DiscreteKernel, cols: np.ndarray) -> DiscreteKernel:
+    """``kernel`` restricted to the springs ``cols`` of each set."""
+    return DiscreteKernel(frequency=kernel.frequency, spring_weight=kernel.spring_weight[cols],
+                          spring_direction=kernel.spring_direction[cols],
+                          spring_x=kernel.spring_x, ss=kernel.ss[:, :, cols][:, :, :, cols],
+                          ss_sep=kernel.ss_sep, ss_index=kernel.ss_index,
+                          sP=kernel.sP[:, :, cols], sP_index=kernel.sP_index,
+                          rs=kernel.rs[..., cols], rs_index=kernel.rs_index, rP=kernel.rP,
+                          rP_index=kernel.rP_index)
+
+
 def couple_discrete(kernel: DiscreteKernel, stiffness) -> np.ndarray:
     """Receptance (nf, n_out, n_rx, n_fx) of the supported rail (m/N).
 
@@ -190,11 +225,18 @@ def couple_discrete(kernel: DiscreteKernel, stiffness) -> np.ndarray:
     (nf, n_s, 3) per direction x, y, z when the springs act in several
     (``kernel.spring_direction``).
     A layout symmetric about x = 0 with symmetric stiffness (any uniform track) is solved
-    as its even and odd parts.
+    as its even and odd parts; springs on different symmetry families of the rail
+    (``spring_families``: a lateral load loads both) as separate systems.
     """
     n_s, n_p, n_rx, n_fx = kernel.shape
     nf = len(kernel.frequency)
     K_sets = _check_stiffness(stiffness, nf, n_s, kernel.spring_direction)
+    groups = spring_families(kernel.ss)
+    if len(groups) > 1:
+        n_out = kernel.rs.shape[2]
+        direct = kernel.rP[:, kernel.rP_index].transpose(0, 3, 1, 2)  # (nf, o, rx, fx)
+        return direct - sum(direct - couple_discrete(_family_kernel(kernel, g), K_sets)
+                            for g in groups)
     n = n_s * n_p
     # flat gather indices into (n_u * n_p * n_p) etc., built once per call
     pp = np.arange(n_p)
