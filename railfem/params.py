@@ -45,6 +45,9 @@ PARAMETERS = {
     "eta_b_lat": ("-", True, (1e-3, 5.0)),
     "ms_lat": ("kg", True, (10.0, 1000.0)),
 }
+#: the parameters fitted by default (the base model's, railfem.identify.base); here so the
+#: command line reads them without loading the fitting machinery
+BASE_PARAMETERS = ("kp", "eta_p", "kb", "eta_b", "eta_r")
 DEVIATION_FIELDS = ("kp", "eta_p", "ms", "kb", "eta_b")
 DEVIATION_BOUNDS = (1e-3, 1e3)  # factors
 _DEVIATION = re.compile(r"^(kp|eta_p|ms|kb|eta_b)\[(-?\d+)\]$")

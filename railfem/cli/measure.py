@@ -108,7 +108,7 @@ def tdr_run(args) -> int:
 
 # ------------------------------------------------------------ track parameters from data
 def fit_args(p: argparse.ArgumentParser) -> None:
-    from ..identify.fit import DEFAULT_PARAMETERS
+    from ..params import BASE_PARAMETERS as DEFAULT_PARAMETERS
     from ..spec import MODELS
 
     p.add_argument("data", type=Path, metavar="DATA",

@@ -82,7 +82,7 @@ def track_run(args) -> int:
 
 
 def support_args(p: argparse.ArgumentParser) -> None:
-    from ..track.footprints import RULES
+    from ..spec import FOOT_RULES as RULES
     from ..track.supports import PRESETS
 
     add_profile(p, h_default=None)

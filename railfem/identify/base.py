@@ -60,12 +60,12 @@ import math
 
 import numpy as np
 
+from railfem.params import BASE_PARAMETERS
 from railfem.spec import TrackSpec, model_kind, preset
 
 BASE_MODEL = "wfe-discrete"
 BASE_PRESET = "site"
 BASE_PAD_LENGTH = 0.0  # m: point supports (see the module docstring)
-BASE_PARAMETERS = ("kp", "eta_p", "kb", "eta_b", "eta_r")
 #: plausible rail loss factor of a supported rail without added damping (module docstring)
 ETA_R_RANGE = (0.005, 0.05)
 ETA_R_PRIOR_WIDTH = 0.001  # decades outside ETA_R_RANGE per unit of the prior entry

@@ -69,7 +69,6 @@ from dataclasses import dataclass, replace
 from functools import lru_cache
 
 import numpy as np
-import scipy.linalg as sla
 
 from .. import validators as v
 
@@ -296,6 +295,8 @@ def _assemble(sl: Sleeper):
 def _modes(sl: Sleeper, case: str):
     """(omega_n^2, Phi (mass-normalised, rigid mode first), unit-bed matrix in the modes,
     seat row of Phi) of the half sleeper with the symmetry condition of ``case``."""
+    import scipy.linalg as sla  # here, not at import: `railfem --help` needs no SciPy
+
     x, K, M, B = _assemble(sl)
     keep = np.arange(len(K)) != (1 if case == "symmetric" else 0)  # theta(0) or w(0) = 0
     K, M, B = (A[np.ix_(keep, keep)] for A in (K, M, B))

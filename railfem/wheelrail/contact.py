@@ -46,7 +46,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize, special
 
 from ..materials import Material
 
@@ -113,6 +112,7 @@ class HertzContact:
 
 def _eccentricity(ratio: float) -> float:
     """e^2 (parameter m) of the contact ellipse for curvature ratio B'/A' >= 1."""
+    from scipy import optimize, special  # not at import: `railfem --help` needs no SciPy
     if ratio == 1.0:
         return 0.0
 
@@ -138,6 +138,7 @@ def hertz(load: float = DEFAULT_WHEEL_LOAD, *, wheel_radius: float = 0.46,
     tread, negative for a worn hollow tread). rail_transverse_radius: rail-head crown
     radius (m). rail_longitudinal_radius: inf for straight rail.
     """
+    from scipy import special
     _positive("load", load)
     _positive("wheel_radius", wheel_radius)
     curv_x = 0.5 * (_radius("wheel_radius", wheel_radius)
@@ -183,6 +184,7 @@ def analytical_filter(ka) -> np.ndarray:
 
 def line_average(q) -> np.ndarray:
     """H of one line under a semi-elliptic (Hertz) pressure: 2 J1(q)/q, q = k a (signed)."""
+    from scipy import special
     q = np.asarray(q, dtype=float)
     out = np.ones_like(q)
     nz = np.abs(q) > 1e-8
@@ -200,6 +202,7 @@ def coherence(kd, model: str = "matern", nu: float = 1.0) -> np.ndarray:
     wavenumber k (argument k d). 'matern': 2^(1-nu)/Gamma(nu) (kd)^nu K_nu(kd), the
     coherence of isotropic roughness whose line spectrum falls as k^(-2 nu) (nu = 1/2:
     exp(-kd)); 'independent': 1 at d = 0, else 0; 'full': 1."""
+    from scipy import special
     x = np.abs(np.asarray(kd, dtype=float))
     if model == "full":
         return np.ones_like(x)
