@@ -6,6 +6,8 @@ grid intervals, dominant bands and what to try next)."""
 import logging
 import sys
 
+import numpy as np
+import pytest
 
 import railfem as rf
 from railfem.identify import fit
@@ -212,3 +214,24 @@ def test_next_steps_name_a_band_limit_another_model_and_random_support():
                         "part); the 630 Hz band of tdr at 15.2 dB RMS (fitted part); the "
                         "8000 Hz band of point at 12.4 dB RMS (fitted part)")
     assert next_steps(dict(s, model="wfe-discrete"), "site_b", "table") == steps[2:]
+
+
+
+# ------------------------------------------------------------------ fit intervals
+
+def test_coarse_profile_interval_follows_the_parabola():
+    """A kernel-parameter profile has few points: delta chi^2 = 400 x^2 sampled at
+    -0.5, -0.05, 0, 0.5 crosses 3.841 at +-0.098; a straight line from 0 to 0.5 would cross
+    at 0.019 (too narrow); widened, the interval follows the parabola (exact here)."""
+    from railfem.identify.fit import CHI2_95, profile_interval
+
+    x = np.array([-0.5, -0.05, 0.0, 0.5])
+    lo, hi, open_ = profile_interval(x, 400 * x ** 2)
+    assert hi == pytest.approx(0.5 * CHI2_95 / 100)  # the chord
+    lo, hi, open_ = profile_interval(x, 400 * x ** 2, widen=True)
+    half = np.sqrt(CHI2_95 / 400)
+    assert (lo, hi) == (pytest.approx(-half), pytest.approx(half)) and open_ is None
+    # never beyond the point already above the threshold
+    lo, hi, _ = profile_interval(np.array([-0.06, 0.0, 0.06]), 1e4 * np.array([.1, 0, 1]),
+                                 widen=True)
+    assert -0.06 <= lo and hi <= 0.06

@@ -533,25 +533,50 @@ def refine_points(vec, dchi, min_inside: int = PROFILE_MIN_INSIDE, n_new: int = 
     return [float(v) for v in new if np.min(np.abs(vec - v)) > tol]
 
 
-def _profile_summary(space, i, vec, cost, dchi) -> dict:
+def _profile_summary(space, i, vec, cost, dchi, widen: bool = False) -> dict:
     p = space.parameters[i]
+    lo, hi, open_ = profile_interval(vec, dchi, widen=widen)
+    return {"name": p.name, "vector": vec.tolist(), "value": [p.decode(v) for v in vec],
+            "cost": cost.tolist(), "delta_chi2": dchi.tolist(),
+            "ci95": [p.decode(lo), p.decode(hi)], "open": open_}
+
+
+def profile_interval(vec, dchi, *, widen: bool = False) -> tuple[float, float, str | None]:
+    """(low, high, open side) of the 95 % interval of a profile (values ``vec`` sorted,
+    ``dchi`` its delta chi^2): where it crosses CHI2_95, linearly interpolated, or the end
+    of the profile where it stays below ('low', 'high', 'both'). ``widen``: a coarse
+    profile (a kernel parameter: each point a kernel), each end moved out to where the
+    parabola through the minimum and its neighbours crosses, but not beyond the
+    bracketing point: on a convex profile the straight line from a point below the
+    threshold to one far above crosses too early."""
+    vec, dchi = np.asarray(vec, dtype=float), np.asarray(dchi, dtype=float)
     k = int(np.argmin(dchi))
-    low_open = dchi[0] < CHI2_95
-    high_open = dchi[-1] < CHI2_95
-    ci = [p.decode(vec[0]) if low_open else p.decode(_crossing(vec[:k + 1][::-1],
-                                                               dchi[:k + 1][::-1])),
-          p.decode(vec[-1]) if high_open else p.decode(_crossing(vec[k:], dchi[k:]))]
+    low_open, high_open = dchi[0] < CHI2_95, dchi[-1] < CHI2_95
+    lo = vec[0] if low_open else _crossing(vec[:k + 1][::-1], dchi[:k + 1][::-1])
+    hi = vec[-1] if high_open else _crossing(vec[k:], dchi[k:])
+    if widen and 0 < k < len(vec) - 1:
+        A = np.vstack([vec[k - 1:k + 2] ** 2, vec[k - 1:k + 2], np.ones(3)]).T
+        a, b, c = np.linalg.solve(A, dchi[k - 1:k + 2])
+        disc = b * b - 4 * a * (c - CHI2_95)
+        if a > 0 and disc > 0:
+            r1, r2 = (-b - np.sqrt(disc)) / (2 * a), (-b + np.sqrt(disc)) / (2 * a)
+            out_lo = [j for j in range(k) if dchi[j] >= CHI2_95]
+            out_hi = [j for j in range(k + 1, len(vec)) if dchi[j] >= CHI2_95]
+            if out_lo:
+                lo = max(min(lo, r1), vec[out_lo[-1]])
+            if out_hi:
+                hi = min(max(hi, r2), vec[out_hi[0]])
     open_ = "both" if low_open and high_open else "low" if low_open else \
         "high" if high_open else None
-    return {"name": p.name, "vector": vec.tolist(), "value": [p.decode(v) for v in vec],
-            "cost": cost.tolist(), "delta_chi2": dchi.tolist(), "ci95": ci, "open": open_}
+    return float(lo), float(hi), open_
 
 
 def _slow_profile_summary(sp, c_best, s2, space, name) -> dict:
     i = space.names.index(name)
     vec = np.array(sp["vector"])
     cost = np.array(sp["cost"])
-    return _profile_summary(space, i, vec, cost, (cost - min(c_best, cost.min())) / max(s2, 1e-300))
+    return _profile_summary(space, i, vec, cost,
+                            (cost - min(c_best, cost.min())) / max(s2, 1e-300), widen=True)
 
 
 def _crossing(x, y) -> float:
