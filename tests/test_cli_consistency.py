@@ -32,3 +32,41 @@ def test_version_answers_without_heavy_imports():
                           timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
     assert proc.stdout.strip().startswith("railfem ")
+
+
+def _help_texts():
+    """The --help text of the command and of every subcommand."""
+    from railfem.cli import COMMANDS, build_parser
+
+    parser = build_parser()
+    texts = {"railfem": parser.format_help()}
+    sub = next(a for a in parser._actions if a.__class__.__name__ == "_SubParsersAction")
+    for name in COMMANDS:
+        texts[name] = sub.choices[name].format_help()
+        inner = [a for a in sub.choices[name]._actions
+                 if a.__class__.__name__ == "_SubParsersAction"]
+        for a in inner:
+            for sname, sp in a.choices.items():
+                texts[f"{name} {sname}"] = sp.format_help()
+    return texts
+
+
+def test_user_facing_text_cites_no_developer_document():
+    """Help texts and the strings written into outputs (everything but docstrings and
+    comments) must not send the user to METHOD.md, which is not shipped."""
+    import ast
+    from pathlib import Path
+
+    import railfem
+
+    for name, text in _help_texts().items():
+        assert "METHOD.md" not in text, name
+    offenders = []
+    for path in sorted(Path(railfem.__file__).parent.rglob("*.py")):
+        tree = ast.parse(path.read_text())
+        docstrings = {id(n.value) for n in ast.walk(tree)
+                      if isinstance(n, ast.Expr) and isinstance(n.value, ast.Constant)}
+        offenders += [f"{path.name}:{n.lineno}" for n in ast.walk(tree)
+                      if isinstance(n, ast.Constant) and isinstance(n.value, str)
+                      and "METHOD.md" in n.value and id(n) not in docstrings]
+    assert offenders == []

@@ -16,7 +16,8 @@ def track_args(p: argparse.ArgumentParser) -> None:
 
     add_rail_options(p)
     p.add_argument("--preset", choices=sorted(PRESETS), default=None,
-                   help="track parameter set of METHOD.md Table 1 (default site)")
+                   help="track parameter set: generic stiff ... very_soft pads, or the "
+                        "unloaded site track (docs/presets.md; default site)")
     p.add_argument("--config", type=Path, default=None, metavar="FILE",
                    help="track spec and job settings from a TOML file or from a run.json of "
                         "an earlier run (its 'config' section); options given here override "
@@ -87,7 +88,8 @@ def support_args(p: argparse.ArgumentParser) -> None:
 
     add_profile(p, h_default=None)
     p.add_argument("--preset", choices=sorted(PRESETS), default="site",
-                   help="track parameter set of METHOD.md Table 1 (default site)")
+                   help="track parameter set: generic stiff ... very_soft pads, or the "
+                        "unloaded site track (docs/presets.md; default site)")
     p.add_argument("--sizes", type=positive, nargs="+", default=[10, 7.5, 5], metavar="MM",
                    help="section element sizes in mm (default 10 7.5 5)")
     p.add_argument("--width", type=count, nargs="+", default=[16, 32, 64], metavar="N",

@@ -212,7 +212,8 @@ def _write_tables(out, res, exact, paper, train) -> dict:
     paths["levels_csv"] = write_text_atomic(out / "band_levels.csv", "\n".join(rows) + "\n")
     le, lp = exact.average_level(), paper.average_level()
     rows = ["# pass-by average over all simulated positions, dB re 1e-9 m/s; exact = incoherent "
-            "sum over sources of the coherent sum over wheels; paper = METHOD.md section 5 form",
+            "sum over sources of the coherent sum over wheels; paper = the same without the "
+            "cross terms between the wheels of one source (docs/passby.md)",
             "band_hz,exact_db,paper_db,exact_minus_paper_db"]
     rows += [f"{b:g},{a:.3f},{p:.3f},{a - p:.3f}" for b, a, p in zip(res.bands.nominal, le, lp)]
     paths["spectrum_csv"] = write_text_atomic(out / "passby_spectrum.csv", "\n".join(rows) + "\n")

@@ -382,11 +382,11 @@ def horizontal_support(kp: float, eta_p: float, kb: float, eta_b: float,
 #: track (a TrackSpec) made of these numbers, the sleeper spacing DEFAULT_SPACING and the
 #: sleeper mass DEFAULT_SLEEPER_MASS.
 TABLE1 = {
-    "stiff": (600, 0.05, 48, 2.0, 0.05, "stiff pads (METHOD.md Table 1)"),
-    "medium": (300, 0.10, 90, 1.5, 0.04, "medium pads (METHOD.md Table 1)"),
-    "soft": (120, 0.15, 120, 1.0, 0.03, "soft pads (METHOD.md Table 1)"),
-    "very_soft": (60, 0.20, 360, 0.5, 0.02, "very soft pads (METHOD.md Table 1)"),
-    "site": (600, 0.25, 42, 1.0, 0.01, "site, estimated, unloaded (METHOD.md Table 1)"),
+    "stiff": (600, 0.05, 48, 2.0, 0.05, "stiff pads"),
+    "medium": (300, 0.10, 90, 1.5, 0.04, "medium pads"),
+    "soft": (120, 0.15, 120, 1.0, 0.03, "soft pads"),
+    "very_soft": (60, 0.20, 360, 0.5, 0.02, "very soft pads"),
+    "site": (600, 0.25, 42, 1.0, 0.01, "site, estimated, unloaded"),
 }
 
 
