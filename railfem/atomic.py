@@ -9,6 +9,11 @@ removes those whose process no longer exists (:func:`remove_stale_temporaries`).
 :func:`prepare_output_dir` is what a job calls before computing anything: it creates the
 folder, proves it is a writable folder (not a file, not read-only) and refuses to mix the
 outputs of two different commands, whose ``run.json`` records would replace each other.
+
+Inside :func:`output_scope` (the ``railfem`` command runs every job in one) a prepared
+folder holds a file ``INCOMPLETE`` until the job ends: removed when it succeeds, kept when
+it fails or is interrupted after writing something; a job that fails before writing
+anything leaves no marker, and no folder if it created it.
 """
 from __future__ import annotations
 
@@ -30,6 +35,8 @@ os.umask(_UMASK)
 FILE_MODE = 0o666 & ~_UMASK
 
 RUN_RECORD = "run.json"
+INCOMPLETE = "INCOMPLETE"  # marker of a folder whose job has not finished (output_scope)
+_SCOPES: list[dict] = []  # the active output_scope blocks: {folder: created by the job}
 _TEMP = re.compile(r"^\..+\.(\d+)\.tmp[^/]*$")
 
 
@@ -142,6 +149,7 @@ def prepare_output_dir(folder, command: str) -> Path:
     folder = Path(folder)
     if folder.exists() and not folder.is_dir():
         raise ValueError(f"output folder {folder} is a file; give --out a folder path")
+    created = not folder.exists()
     try:
         folder.mkdir(parents=True, exist_ok=True)
         probe = folder / f".railfem-write-test.{os.getpid()}.tmp"
@@ -162,4 +170,48 @@ def prepare_output_dir(folder, command: str) -> Path:
                 f"output folder {folder} holds the results of 'railfem {previous}' "
                 f"({record}); writing 'railfem {command}' there would replace that record. "
                 "Give --out another folder")
+    if _SCOPES and folder.resolve() not in _SCOPES[-1]:
+        write_text(folder / INCOMPLETE, f"'railfem {command}' is writing here or was "
+                   "interrupted: the outputs of this folder may be partial. This file is "
+                   "removed when the command finishes.\n")
+        _SCOPES[-1][folder.resolve()] = created
     return folder
+
+
+@contextlib.contextmanager
+def output_scope():
+    """Mark the output folders prepared inside the block (prepare_output_dir) with an
+    ``INCOMPLETE`` file until the block ends. On success the markers go. On an exception
+    (bad input, Ctrl-C, kill) a folder where the job wrote something keeps its marker; one
+    where it wrote nothing loses it again, and is removed if the job created it."""
+    prepared: dict[Path, bool] = {}
+    _SCOPES.append(prepared)
+    try:
+        yield prepared
+    except BaseException:
+        for folder, created in prepared.items():
+            _abandon(folder, created)
+        raise
+    else:
+        for folder in prepared:
+            (folder / INCOMPLETE).unlink(missing_ok=True)
+    finally:
+        _SCOPES.remove(prepared)
+
+
+def _abandon(folder: Path, created: bool) -> None:
+    """After a failed job: keep the INCOMPLETE marker if anything was written after it."""
+    marker = folder / INCOMPLETE
+    try:
+        since = marker.stat().st_mtime_ns
+        written = [p for p in folder.rglob("*") if p.is_file() and p != marker
+                   and p.stat().st_mtime_ns >= since]
+        if written:
+            return
+        marker.unlink()
+        if created:
+            for d in sorted((p for p in folder.rglob("*") if p.is_dir()), reverse=True):
+                d.rmdir()  # only empty sub-folders; any file stops the clean-up
+            folder.rmdir()
+    except OSError as exc:  # leave whatever cannot be checked or removed
+        log.debug("output folder %s not cleaned up: %s", folder, exc)

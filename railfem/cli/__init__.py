@@ -36,6 +36,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 from .. import __version__  # noqa: E402
+from ..atomic import output_scope  # noqa: E402
 from .common import EXIT_BAD_INPUT, BadInput  # noqa: E402
 from .cache import cache_args, cache_run  # noqa: E402
 from .measure import (diagnose_args, diagnose_run, fit_args, fit_run,  # noqa: E402
@@ -173,7 +174,8 @@ def main(argv=None) -> int:
     if threading.current_thread() is threading.main_thread():
         previous_term = signal.signal(signal.SIGTERM, _terminate)
     try:
-        code = int(args._run(args) or 0)
+        with output_scope():  # INCOMPLETE in the output folder until the job ends
+            code = int(args._run(args) or 0)
         sys.stdout.flush()
         return code
     except BrokenPipeError:

@@ -35,11 +35,11 @@ def run_tdr_hammer(data, out_dir, *, exclusion: tdr.NoiseFloorExclusion = tdr.No
     from ..io import read_measurement
 
     t0 = time.perf_counter()
-    out = prepare_output_dir(out_dir, "tdr hammer")
     m = read_measurement(data)
     names = list(sensors) if sensors else list(m.sensor_names)
     for n in names:
         m.sensor(n)  # unknown names fail before any computing
+    out = prepare_output_dir(out_dir, "tdr hammer")  # after the input checks: no empty folder
     results = {n: tdr.hammer(m, n, exclusion=exclusion, point=point) for n in names}
     first = results[names[0]]
     head = ["band_hz"] + [f"{n}_{c}" for n in names
