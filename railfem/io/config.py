@@ -56,6 +56,7 @@ __all__ = ["read_toml", "read_descriptor", "read_track_config", "FORMATS"]
 FORMATS = {".uff": "uff58", ".unv": "uff58", ".csv": "csv", ".txt": "csv"}
 _TOP = {"file", "format", "sleeper_spacing_m", "sensor_x_m", "excitation", "rail", "unit",
         "positions_m", "sensors", "metadata", "csv"}
+_TABLES = {"sensors", "metadata", "csv"}  # the tables among _TOP
 _SENSOR = {"response", "direction", "y_m", "z_m", "note"}
 _CSV = {"frequency", "frequency_unit", "form", "phase_unit", "db_reference", "time_convention",
         "delimiter", "channels"}
@@ -87,6 +88,7 @@ def read_track_config(path) -> tuple[dict, dict]:
         path = path / "run.json"
     if path.suffix != ".json":
         data = read_toml(path)
+        _check_track_names(path, data)
         job = data.pop("job", {})
         return data, job
     try:
@@ -99,14 +101,48 @@ def read_track_config(path) -> tuple[dict, dict]:
                          ) from None
 
 
+def _line_of(path, name: str) -> str:
+    """'line N' where ``name`` is set or opened as a table in the file at ``path``."""
+    pattern = re.compile(rf"^\s*(\[+\s*)?{re.escape(name)}\s*(=|\]|\.)")
+    try:
+        lines = read_text(path).splitlines()
+    except (OSError, ValueError):
+        return ""
+    return next((f"line {i}, " for i, ln in enumerate(lines, 1) if pattern.match(ln)), "")
+
+
+def _unknown_names(path, extra, keys, tables, where: str = "top level") -> MalformedFileError:
+    """The error for unknown names: both the valid keys and the valid tables."""
+    first = sorted(extra)[0]
+    fix = f"valid keys: {', '.join(sorted(keys)) or 'none'}"
+    if tables:
+        arrays = {"deviations", "channels"}  # arrays of tables: [[deviations]]
+        fix += "; valid tables: " + ", ".join(f"[[{t}]]" if t in arrays else f"[{t}]"
+                                              for t in sorted(tables))
+    return file_error(MalformedFileError, path, f"{_line_of(path, first)}{where}",
+                      f"unknown key(s) {sorted(extra)}", fix)
+
+
+def _check_track_names(path, data: dict) -> None:
+    """The top-level names of a track config are spec keys or tables (railfem.spec.SCHEMA)
+    or the [job] table."""
+    from railfem.spec import SCHEMA
+
+    tables = {k for k in SCHEMA if k and k != "deviation"} | {"deviations", "job"}
+    extra = set(data) - set(SCHEMA[""]) - tables
+    if extra:
+        raise _unknown_names(path, extra, SCHEMA[""], tables)
+
+
 def _section(path, d: dict, name: str, allowed: set) -> dict:
     if not isinstance(d, dict):
         raise file_error(MalformedFileError, path, f"[{name}]", "not a table",
                          f"write [{name}] as a TOML table")
     extra = set(d) - allowed
     if extra:
-        raise file_error(MalformedFileError, path, f"[{name}]", f"unknown key(s) {sorted(extra)}",
-                         f"use {sorted(allowed)}")
+        tables = {k for k in allowed if k in _TABLES}
+        raise _unknown_names(path, extra, allowed - tables, tables,
+                             "top level" if name == "top level" else f"[{name}]")
     return d
 
 
