@@ -188,10 +188,16 @@ def wfe_rail(rail: RailSpec, patch_width: float, n_foot_springs: int,
 
 def _rail_of(spec: TrackSpec) -> Rail:
     n = spec.numerics
-    if spec.support_directions == "z":  # the memo key of vertical models as before
+    if spring_directions(spec) == "z":  # the memo key of vertical models as before
         return wfe_rail(spec.rail, n.patch_width, n.n_foot_springs, n.foot_rule)
     return wfe_rail(spec.rail, n.patch_width, n.n_foot_springs, n.foot_rule,
-                    spec.support_directions)
+                    spring_directions(spec))
+
+
+def spring_directions(spec: TrackSpec) -> str:
+    """The foot springs' directions: TrackSpec.support_directions, and 'r' (the foot's roll
+    column) when the fastening restrains the roll (SupportParameters.k_roll > 0)."""
+    return spec.support_directions + ("r" if spec.support.k_roll > 0 else "")
 
 
 def _channel_key(rail: Rail, force: str, outputs) -> tuple:
@@ -296,7 +302,7 @@ def receptance(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE
                                     outputs=[rail.outputs[o] for o in outputs], x=u,
                                     load_length=spec.numerics.load_length,
                                     n_waves=spec.numerics.n_waves, tail=spec.numerics.tail,
-                                    directions=spec.support_directions, progress=progress)
+                                    directions=spring_directions(spec), progress=progress)
     return r.receptance[:, :, inv.reshape(sep.shape), 0]
 
 

@@ -20,7 +20,8 @@ from dataclasses import asdict, dataclass, field, fields, replace
 
 from . import validators as v
 from .materials import Material
-from .track.supports import HORIZONTAL_FIELDS, PRESETS, SupportLayout, SupportParameters
+from .track.supports import (
+    GRIP_FIELDS, HORIZONTAL_FIELDS, PRESETS, SupportLayout, SupportParameters)
 from .track.supports import DIRECTIONS as SUPPORT_DIRECTIONS, RAIL_LOSS_FACTORS, preset_key
 from .track.supports import DEFAULT_SPACING, uniform_layout
 from .track.sleeper import CASES as LOAD_CASES, Sleeper, load_case
@@ -361,7 +362,7 @@ class TrackSpec:
         eta_b and the horizontal ones (kp_lat, ..., supports.HORIZONTAL_FIELDS) in SI, and
         eta_r (the rail loss factor)."""
         sup = {k: changes.pop(k) for k in ("kp", "eta_p", "ms", "kb", "eta_b")
-               + HORIZONTAL_FIELDS + BALLAST_FIELDS if k in changes}
+               + HORIZONTAL_FIELDS + GRIP_FIELDS + BALLAST_FIELDS if k in changes}
         if "sleeper" in changes:
             sup["sleeper"] = sleeper_option(changes.pop("sleeper"))
         if sup:
@@ -435,7 +436,8 @@ SCHEMA = {
                 "eta_b": "number", "kp_lat": "stiffness", "eta_p_lat": "number",
                 "kp_long": "stiffness", "eta_p_long": "number", "kb_lat": "stiffness",
                 "eta_b_lat": "number", "ms_lat": "mass", "mb": "mass", "kf": "stiffness",
-                "eta_f": "number"},
+                "eta_f": "number", "k_roll": "number", "eta_roll": "number",
+                "k_clip": "stiffness", "eta_clip": "number"},
     "track": {"spacing": "length", "pad_length": "length", "n_rows": "int",
               "n_supports": "int", "support_directions": "str", "rails": "int"},
     "sleeper": {"model": "str", "length": "length", "seat_distance": "length",

@@ -612,12 +612,14 @@ def lateral_track_receptance(section: LateralSection, support_params: SupportPar
     and vertically: lateral stiffness K_y(omega)/spacing per metre at the foot underside
     (height z_foot, m) and rotational stiffness K_z(omega)/spacing * bed_moment, where
     bed_moment (m^2) is the second moment of the vertical bed's distribution across the foot
-    about the web axis (W^2/12 for a uniform bed of width W). Shapes as lateral_receptance."""
+    about the web axis (W^2/12 for a uniform bed of width W), plus the fastening's roll
+    restraint k_roll / spacing (SupportParameters). Shapes as lateral_receptance."""
     from .supports import directional_stiffness, dynamic_stiffness
 
     w = np.atleast_1d(_as_omega(omega, allow_zero=True))
     ky = directional_stiffness(support_params, w, "y") / spacing
-    kt = dynamic_stiffness(support_params, w) / spacing * bed_moment
+    kt = (dynamic_stiffness(support_params, w) / spacing * bed_moment
+          + directional_stiffness(support_params, w, "r") / spacing)  # + the grip's roll
     return lateral_receptance(section, w, x, force, response, k_y=ky, k_theta=kt,
                               z_spring=z_foot, load_length=load_length,
                               response_length=response_length)

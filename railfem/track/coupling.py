@@ -106,10 +106,11 @@ def _row_scaling(K: np.ndarray, alpha0: np.ndarray):
 
 
 def _check_stiffness(K: np.ndarray, n_f: int, n: int, direction=None) -> np.ndarray:
-    """(n_f, n) vertical set stiffness, or (n_f, n, 3) per direction x, y, z; a kernel with
-    horizontal springs (direction codes 0, 1) needs the second form."""
+    """(n_f, n) vertical set stiffness, or (n_f, n, 3) per direction x, y, z, (n_f, n, 4)
+    with the foot's roll (code 3, N m/rad); a kernel with horizontal springs (direction
+    codes 0, 1) needs one of the last forms."""
     K = np.asarray(K, dtype=complex)
-    if K.shape not in ((n_f, n), (n_f, n, 3)):
+    if K.shape not in ((n_f, n), (n_f, n, 3), (n_f, n, 4)):
         raise ValueError(f"spring stiffness has shape {K.shape}, expected (n_freq, n_springs) "
                          f"= ({n_f}, {n}) or (n_freq, n_springs, 3) per direction x, y, z")
     if K.ndim == 2 and direction is not None and np.any(np.asarray(direction) != 2):

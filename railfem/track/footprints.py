@@ -165,6 +165,25 @@ def spring_reads(guide: Waveguide, n: int, rule: str = "midpoint", component: in
     return reads, ys, share
 
 
+def roll_reads(guide: Waveguide, n: int, rule: str = "midpoint") -> Location:
+    """The foot's roll (rotation about the rail axis, rad, positive from +y towards +z) as a
+    generalised column over the n vertical springs across the foot underside:
+
+        theta = sum_j w_j y_j u_z,j / sum_j w_j y_j^2
+
+    (the least-squares rotation of the spring points, w_j their shares, y_j from the foot
+    centre). Loaded by a moment M it puts M w_j y_j / sum w y^2 on spring j: no net force,
+    moment M. The fastening's roll restraint k_roll acts on it
+    (railfem.track.supports.SupportParameters)."""
+    reads, ys, share = spring_reads(guide, n, rule, 2)
+    y = np.asarray(ys) - np.mean([np.min(ys), np.max(ys)])
+    den = float(np.sum(share * y ** 2))
+    if n < 2 or den <= 0:
+        raise ValueError(f"the roll of the foot needs n >= 2 springs across it, got n = {n}")
+    w = sum(c * r for c, r in zip(share * y / den, reads))
+    return Location(label="foot_roll", weights=np.asarray(w))
+
+
 def bed_matrix(points: WidthPoints):
     """The width bed the springs make, sum over pairs of share w w^T (sparse, N x N):
     the stiffness matrix of a support of unit stiffness acting through these springs."""
@@ -201,4 +220,5 @@ def consistent_bed(guide: Waveguide):
 
 
 __all__ = ["RULES", "WidthPoints", "bed_matrix", "consistent_bed", "point_weights",
+           "roll_reads",
            "shape_functions", "spring_reads", "underside_edges", "width_points"]

@@ -155,6 +155,17 @@ class SupportParameters:
         does not move horizontally.
     ms_lat: sleeper mass per rail moving horizontally with the rail (kg).
 
+    The fastening's grip (defaults 0: the pad alone, as published):
+    k_roll, eta_roll: roll (rotational, about the rail axis) stiffness of the fastening on
+        the rail foot per support (N m/rad) and its loss factor, beyond the roll stiffness
+        that the vertical pad springs across the foot give; it acts on the foot's roll
+        theta = sum w_j y_j u_z,j / sum w_j y_j^2 over the foot springs (a generalised
+        spring, direction 'r'). The sleeper is taken as rigid in rotation about the rail
+        axis (its rocking on the ballast is much stiffer: assumed).
+    k_clip, eta_clip: lateral stiffness of the clips on the foot per support (N/m) and its
+        loss factor, in parallel with the lateral pad kp_lat and in series with the same
+        lateral sleeper-ballast chain (ms_lat, kb_lat).
+
     Real track (railfem.track.sleeper; defaults: the published chain above).
     mb: participating ballast mass per rail (kg) between the ballast spring kb* and the
         subgrade spring kf* = kf (1 + i eta_f); 0 (default) = no ballast mass.
@@ -185,6 +196,10 @@ class SupportParameters:
     eta_f: float = 0.0
     sleeper: Sleeper | None = None
     case: str = "symmetric"
+    k_roll: float = 0.0
+    eta_roll: float = 0.0
+    k_clip: float = 0.0
+    eta_clip: float = 0.0
 
     def __post_init__(self):
         _check_stiffness("kf", self.kf)
@@ -202,8 +217,10 @@ class SupportParameters:
         _check_stiffness("kb", self.kb)
         _check_loss_factor("eta_p", self.eta_p)
         _check_loss_factor("eta_b", self.eta_b)
-        for name in HORIZONTAL_STIFFNESS:
+        for name in HORIZONTAL_STIFFNESS + ("k_roll", "k_clip"):
             _check_stiffness(name, getattr(self, name))
+        for name in ("eta_roll", "eta_clip"):
+            _check_loss_factor(name, getattr(self, name))
         for name in HORIZONTAL_LOSS:
             _check_loss_factor(name, getattr(self, name))
         if not np.isfinite(self.ms_lat) or self.ms_lat < 0:
@@ -250,7 +267,7 @@ class SupportParameters:
         return replace(self, kp=scale(self.kp), ms=scale(self.ms), kb=scale(self.kb),
                        absorber=absorber, mb=scale(self.mb), kf=scale(self.kf),
                        sleeper=sleeper,
-                       **{n: scale(getattr(self, n)) for n in HORIZONTAL_SCALED})
+                       **{n: scale(getattr(self, n)) for n in HORIZONTAL_SCALED + GRIP_SCALED})
 
 
 #: The horizontal fields of SupportParameters (additive to the vertical ones).
@@ -259,33 +276,53 @@ HORIZONTAL_LOSS = ("eta_p_lat", "eta_p_long", "eta_b_lat")
 HORIZONTAL_SCALED = ("kp_lat", "kp_long", "kb_lat", "ms_lat")
 HORIZONTAL_FIELDS = ("kp_lat", "eta_p_lat", "kp_long", "eta_p_long", "kb_lat", "eta_b_lat",
                      "ms_lat")
+#: The fastening's grip on the rail foot (roll and clip, additive to the others).
+GRIP_FIELDS = ("k_roll", "eta_roll", "k_clip", "eta_clip")
+GRIP_SCALED = ("k_roll", "k_clip")
 #: Directions a support acts in: u_z (vertical), u_y (lateral), u_x (longitudinal).
 DIRECTIONS = ("z", "y", "x")
+#: The roll of the foot (a rotation about the rail axis, rad): the grip's generalised spring.
+ROLL = "r"
 
 
 def chain(params: SupportParameters, direction: str = "z") -> SupportParameters:
     """The pad - sleeper - ballast chain acting in ``direction`` as vertical-form
     SupportParameters (kp, eta_p, ms, kb, eta_b): 'z' is params itself; 'y' the lateral pad
-    on the sleeper's horizontal ballast support; 'x' the longitudinal pad on the same."""
+    on the sleeper's horizontal ballast support (with the clips k_clip in parallel with the
+    pad); 'x' the longitudinal pad on the same; 'r' the roll restraint k_roll (N m/rad) on
+    a sleeper rigid in rotation."""
     if direction == "z":
         return params
+    if direction == ROLL:
+        return SupportParameters(kp=params.k_roll, eta_p=params.eta_roll, ms=0.0,
+                                 kb=math.inf)
     if direction not in DIRECTIONS:
-        raise ValueError(f"support direction {direction!r}: use one of {', '.join(DIRECTIONS)}")
+        raise ValueError(f"support direction {direction!r}: use one of {', '.join(DIRECTIONS)}"
+                         f" or {ROLL!r} (roll)")
     kp, eta = ((params.kp_lat, params.eta_p_lat) if direction == "y"
                else (params.kp_long, params.eta_p_long))
+    if direction == "y" and params.k_clip > 0:  # pad and clips in parallel
+        kp = params.kp_lat + params.k_clip
+        eta = 0.0 if math.isinf(kp) else (params.kp_lat * params.eta_p_lat
+                                          + params.k_clip * params.eta_clip) / kp
     return SupportParameters(kp=kp, eta_p=eta, ms=params.ms_lat, kb=params.kb_lat,
                              eta_b=params.eta_b_lat)
 
 
 def directional_stiffness(params: SupportParameters, omega, direction: str = "z"):
     """Dynamic stiffness (N/m, complex, shape of omega) of one support in ``direction``
-    ('z', 'y' or 'x'): ``dynamic_stiffness`` of ``chain(params, direction)``."""
+    ('z', 'y' or 'x'; N m/rad for the roll 'r'): ``dynamic_stiffness`` of
+    ``chain(params, direction)``."""
     return dynamic_stiffness(chain(params, direction), omega)
 
 
 def acts_in(params: SupportParameters, direction: str) -> bool:
-    """Whether the support has a pad in ``direction`` (the vertical one always counts)."""
-    return direction == "z" or (params.kp_lat if direction == "y" else params.kp_long) > 0
+    """Whether the support has a pad in ``direction`` (the vertical one always counts; 'y'
+    with the clips, 'r' the roll restraint)."""
+    if direction == ROLL:
+        return params.k_roll > 0
+    return direction == "z" or (params.kp_lat + params.k_clip if direction == "y"
+                                else params.kp_long) > 0
 
 
 def _complex_stiffness(k: float, eta: float) -> complex:
@@ -574,5 +611,5 @@ __all__ = [
     "support_receptance", "continuous_stiffness", "TABLE1", "PRESETS", "RAIL_LOSS_FACTORS",
     "preset_key", "SpringSet", "SupportLayout", "uniform_layout", "with_support",
     "foot_spring_weights", "DEFAULT_SPACING", "DEFAULT_SLEEPER_MASS", "DIRECTIONS",
-    "HORIZONTAL_FIELDS", "chain", "directional_stiffness", "acts_in",
+    "HORIZONTAL_FIELDS", "GRIP_FIELDS", "ROLL", "chain", "directional_stiffness", "acts_in",
 ]

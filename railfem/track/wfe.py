@@ -61,6 +61,8 @@ DEFAULT_N_THETA = 512  # Floquet angles; see tests/test_track.py for the converg
 #: family, which is not an excitation.
 FAMILY_TOL = 1e-9
 COMPONENT = {"x": 0, "y": 1, "z": 2}
+#: direction code of the foot's roll column (the fastening's roll restraint, foot_springs)
+ROLL_CODE = 3
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -91,8 +93,8 @@ class FootSprings:
 
     @property
     def directions(self) -> str:
-        """The directions the springs act in, canonical order z, y, x."""
-        return "".join(d for d in "zyx" if d == "z" or d in self.other_direction)
+        """The directions the springs act in, canonical order z, y, x (and r: the roll)."""
+        return "".join(d for d in "zyxr" if d == "z" or d in self.other_direction)
 
 
 def foot_springs(guide: Waveguide, n_f: int = DEFAULT_N_FOOT_SPRINGS, *,
@@ -102,13 +104,14 @@ def foot_springs(guide: Waveguide, n_f: int = DEFAULT_N_FOOT_SPRINGS, *,
     tributary width (METHOD.md section 2, the published configuration); ``"midpoint"`` at
     the strip centres through the P2 edge shape functions (the distributed bed).
     directions: 'z' or with 'y' (lateral) and 'x' (longitudinal): each spring position
-    carries one spring per direction, on the same footprint.
+    carries one spring per direction, on the same footprint; 'r' adds the foot's roll as
+    one generalised column (footprints.roll_reads: the fastening's roll restraint).
     A FootSprings passed as n_f is returned as it is, so the models take any footprint."""
-    from .footprints import spring_reads, width_points
+    from .footprints import roll_reads, spring_reads, width_points
 
     if isinstance(n_f, FootSprings):
         return n_f
-    if "z" not in directions or not set(directions) <= set("zyx"):
+    if "z" not in directions or not set(directions) <= set("zyxr"):
         raise ValueError(f"spring directions = {directions!r}: give 'z' with optionally 'y' "
                          "(lateral) and 'x' (longitudinal), e.g. 'zyx'")
     wp = width_points(guide, n_f, rule)
@@ -127,6 +130,10 @@ def foot_springs(guide: Waveguide, n_f: int = DEFAULT_N_FOOT_SPRINGS, *,
                 others.append(Location(label=f"foot_spring_{i}_{d}{sign}", weights=w))
                 weight.append(pair_share)
                 direction.append(d)
+    if "r" in directions:  # the roll: a moment on the foot, the whole support's restraint
+        others.append(roll_reads(guide, n_f, rule))
+        weight.append(1.0)
+        direction.append("r")
     return FootSprings(pairs=wp.pairs, weight=wp.share, y=wp.y, others=tuple(others),
                        other_weight=np.array(weight), other_direction=tuple(direction))
 
@@ -151,7 +158,8 @@ def spring_columns(guide: Waveguide, springs: FootSprings, families) -> tuple:
     share = np.concatenate([np.asarray(springs.weight, dtype=float),
                             np.asarray(springs.other_weight, dtype=float)])
     code = np.array([2] * len(springs.pairs)
-                    + [COMPONENT[d] for d in springs.other_direction], dtype=np.int64)
+                    + [COMPONENT.get(d, ROLL_CODE) for d in springs.other_direction],
+                    dtype=np.int64)
     keep = []
     for j, loc in enumerate(locs):
         top = np.abs(loc.weights).max()
@@ -254,11 +262,13 @@ def _columns(guide: Waveguide, springs: FootSprings, load: Location,
 
 def spring_stiffness(layout: SupportLayout, omega, kernel) -> np.ndarray:
     """The coupling's spring-set stiffness for ``kernel``'s springs: (nf, n_sets) vertical
-    when all its springs are vertical, else (nf, n_sets, 3) in the directions x, y, z
-    (railfem.track.coupling)."""
-    if np.all(np.asarray(kernel.spring_direction) == 2):
+    when all its springs are vertical, else (nf, n_sets, 3) in the directions x, y, z, or
+    (nf, n_sets, 4) with the roll restraint (N m/rad) as the fourth (railfem.track.coupling)."""
+    codes = np.asarray(kernel.spring_direction)
+    if np.all(codes == 2):
         return layout.spring_stiffness(omega)
-    return np.stack([layout.spring_stiffness(omega, d) for d in "xyz"], axis=-1)
+    dirs = "xyzr" if np.any(codes == ROLL_CODE) else "xyz"
+    return np.stack([layout.spring_stiffness(omega, d) for d in dirs], axis=-1)
 
 
 # ------------------------------------------------------------------ discrete supports
@@ -471,6 +481,15 @@ def foot_bed(guide: Waveguide, component: int = 2) -> sp.csr_matrix:
     return sp.diags(diag / diag.sum()).tocsr()
 
 
+def roll_bed(guide: Waveguide, n: int = 64):
+    """g g^T (sparse) with g the foot's roll reading (footprints.roll_reads, midpoint rule,
+    n points): the stiffness matrix of a unit roll restraint (N m/rad) on the foot."""
+    from .footprints import roll_reads
+
+    g = sp.csr_matrix(roll_reads(guide, n, "midpoint").weights[None, :])
+    return (g.T @ g).tocsr()
+
+
 def supported_operators(guide: Waveguide, params, spacing: float, family: str = FAMILY,
                         directions: str = "z") -> FamilyOperators:
     """Operators of one family of the rail on the continuous foundation (in the
@@ -478,8 +497,9 @@ def supported_operators(guide: Waveguide, params, spacing: float, family: str = 
     the foot underside): its waves are the free waves of the continuously supported track."""
     ops = FamilyOperators(guide, family)
     T = guide.families[family].T
-    beds = [(d, (T.T @ foot_bed(guide, COMPONENT[d]) @ T).tocsr()[ops.order][:, ops.order])
-            for d in "zyx" if d in directions]
+    beds = [(d, (T.T @ (roll_bed(guide) if d == "r" else foot_bed(guide, COMPONENT[d]))
+                 @ T).tocsr()[ops.order][:, ops.order])
+            for d in "zyxr" if d in directions]
     if len(beds) == 1:
         bed = beds[0][1]
         ops.extra = lambda omega: (dynamic_stiffness(params, omega).item() / spacing) * bed
