@@ -83,6 +83,28 @@ def test_noise_free_recovery_all_six_parameters():
         assert p["value"] == pytest.approx(TRUTH[p["name"]], rel=1e-4), p
 
 
+def test_noise_free_recovery_kernel_parameter_profiled_fast():
+    """eta_r changes the beam kernel: the fit profiles over it (exact kernels); the other
+    support parameters at the truth, so the profile's inner fits are one-parameter ones
+    (the five-parameter form runs with -m slow)."""
+    f = F[::3]  # every third line: a kernel per profile step costs a third
+    spec = rf.preset("site", model="timoshenko-discrete").replace(**TRUTH)
+    xs, pos, hx = models.hammer_x(spec)
+    a = models.receptance(spec, f, hx, [xs], outputs=("head",), cache=False)[:, :, 0, :]
+    pos = pos.copy()
+    pos[0] = models.POINT_OFFSET
+    frf = rf.FRF(frequency=f, values=2j * np.pi * f[:, None, None] * a, quantity="mobility",
+                 response=("head",), force=tuple(f"x{p:.3f}" for p in pos))
+    meas = HammerMeasurement(frf=frf, positions=pos, sensors=(Sensor(name="head"),),
+                             sleeper_spacing=0.6, sensor_x=0.3)
+    base = rf.preset("site").replace(**{n: TRUTH[n] for n in ("ms", "eta_p", "kb", "eta_b")})
+    res = fit(meas, "timoshenko-discrete", parameters=("kp", "eta_r"), base=base,
+              use=("point", "phase", "tdr"), n_starts=2, workers=1, profiles=(), slow_refine=12)
+    for p in res.parameters:
+        assert p["value"] == pytest.approx(TRUTH[p["name"]], rel=1e-4), p
+
+
+@pytest.mark.slow
 def test_noise_free_recovery_kernel_parameter_profiled():
     """eta_r changes the beam kernel: the fit profiles over it (exact kernels)."""
     Y, pos = simulate("timoshenko-discrete")
@@ -110,8 +132,10 @@ def forward(clean_hammer):
                                         force_x=tgt.force_x), cache=False)
 
 
-@pytest.mark.parametrize("level, floor_db", [(0.01, None), (0.05, None), (0.10, None),
-                                             (0.01, -50.0)])
+@pytest.mark.parametrize("level, floor_db", [  # one level in the default run, all with -m slow
+    pytest.param(0.01, None, marks=pytest.mark.slow), (0.05, None),
+    pytest.param(0.10, None, marks=pytest.mark.slow),
+    pytest.param(0.01, -50.0, marks=pytest.mark.slow)])
 def test_coverage_of_95_percent_intervals(clean_hammer, forward, level, floor_db):
     Y0, pos = clean_hammer
     inside = {n: 0 for n in FAST}
@@ -267,3 +291,4 @@ def test_stiffness_profile_resolves_its_interval(clean_hammer):
     assert lo < res.parameter("kp")["value"] < hi and prof["open"] is None
     step = np.diff(prof["vector"])
     assert np.all(step > 0)  # sorted, no repeated value
+
