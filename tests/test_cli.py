@@ -89,7 +89,7 @@ def test_wave_shapes_are_full_per_node_shapes():
 
 @pytest.mark.parametrize("argv, message", [
     (["dispersion", "--profile", "nonsense", "--no-render"], "unknown profile"),
-    (["dispersion", "--fmin", "500", "--fmax", "100", "--no-render"], "fmax"),
+    (["dispersion", "--fmin", "500", "--fmax", "100", "--no-render"], "--f-high"),
     (["dispersion", "--mesh", "/nonexistent/m.npz", "--no-render"], "railfem mesh"),
     (["mesh", "--profile", "rect:20x50", "--h", "80"], "element size"),
     (["convergence", "--profile", "rect:20x50", "--sizes", "5"], "at least two"),

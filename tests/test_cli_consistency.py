@@ -1,7 +1,10 @@
 """The command line: starts fast, and its commands spell the same thing the same way."""
 import json
+import os
 import subprocess
 import sys
+
+import pytest
 
 
 
@@ -70,3 +73,68 @@ def test_user_facing_text_cites_no_developer_document():
                       if isinstance(n, ast.Constant) and isinstance(n.value, str)
                       and "METHOD.md" in n.value and id(n) not in docstrings]
     assert offenders == []
+
+
+def _parse(argv):
+    from railfem.cli import build_parser
+
+    return build_parser().parse_args(argv)
+
+
+def test_every_frequency_band_option_states_its_unit():
+    """No bare F_LOW / F_HIGH metavar: every frequency option shows HZ."""
+    for name, text in _help_texts().items():
+        assert "F_LOW" not in text and "F_HIGH" not in text, name
+        for opt in ("--f-low", "--f-high"):
+            if opt in text:
+                assert f"{opt} HZ" in text, (name, opt)
+
+
+def test_speed_is_given_in_kmh_by_every_command():
+    texts = _help_texts()
+    for name in ("passby", "roughness", "tdr passby", "diagnose"):
+        assert "--speed-kmh KMH" in texts[name], name
+        assert "M/S" not in texts[name] and "--speed " not in texts[name], name
+    for cmd in (["roughness", "r.npz", "--track", "site"], ["tdr", "passby", "r.npz"],
+                ["diagnose", "r.npz"]):
+        assert _parse([*cmd, "--speed-kmh", "72"]).speed == pytest.approx(20.0)
+        assert _parse([*cmd, "--speed", "20"]).speed == pytest.approx(20.0)  # older spelling
+    assert _parse(["passby", "--speed-kmh", "216"]).speed_kmh == 216.0
+
+
+def test_workers_has_one_default_stated_in_help():
+    from railfem.cli.common import MAX_WORKERS, workers_from_args
+
+    texts = _help_texts()
+    for name, argv in (("fit", ["fit", "d"]), ("diagnose", ["diagnose", "d"]),
+                       ("study passby", ["study", "passby"])):
+        assert f"(default: all cores, at most {MAX_WORKERS})" in " ".join(texts[name].split())
+        args = _parse(argv)
+        assert args.workers is None
+        assert workers_from_args(args) == max(1, min(os.cpu_count() or 1, MAX_WORKERS))
+        assert workers_from_args(_parse([*argv, "--workers", "3"])) == 3
+
+
+def test_older_frequency_spellings_still_read_but_not_shown():
+    args = _parse(["dispersion", "--fmin", "100", "--fmax", "200"])
+    assert (args.fmin, args.fmax) == (100.0, 200.0)
+    args = _parse(["dispersion", "--f-low", "100", "--f-high", "200"])
+    assert (args.fmin, args.fmax) == (100.0, 200.0)
+    assert "--fmin" not in _help_texts()["dispersion"]
+
+
+def test_select_reports_directions_in_the_tables_own_words(tmp_path):
+    from railfem.io.data import read_data
+
+    path = tmp_path / "table.csv"
+    path.write_text("# railfem decay-rate table v1; unit=dB/m; band columns: one-third-octave "
+                    "centre frequency (Hz)\n"
+                    "direction,sensor,date,temperature_c,section,rail_side,100,125\n"
+                    "v,,,,A,,1,1\nh,,,,A,,2,2\n")
+    with pytest.raises(ValueError) as err:
+        read_data(path, select="dir=x")
+    msg = str(err.value)
+    assert "dir = v, h" in msg or "dir = h, v" in msg
+    assert "'y'" not in msg and "'z'" not in msg
+    kind, items = read_data(path, select="dir=v")
+    assert [i for i, _ in items] == [0]

@@ -2,7 +2,7 @@
 
     railfem mesh --profile 60E1 --h 10 --out meshes/       mesh + quality summary
     railfem mesh --shipped                                  regenerate railfem/data/meshes/ (60E1)
-    railfem dispersion --profile 60E1 --h 10 --fmin 50 --fmax 5000 --n 100 --out DIR
+    railfem dispersion --profile 60E1 --h 10 --f-low 50 --f-high 5000 --n 100 --out DIR
     railfem dispersion --k-range 0.1 30 60 --out DIR        omega(k) instead of k(omega)
     railfem convergence --profile 60E1 --sizes 20 15 10 7.5 5 --frequencies 1000 --out DIR
     railfem mobility --free --freq 50:8000:60 --response head foot_sensor --x 0 0.3 --out DIR

@@ -39,8 +39,44 @@ def count(text: str) -> int:
     return _number(text, int, ok=lambda v: v >= 1, expected="an integer >= 1")
 
 
+def kmh(text: str) -> float:
+    """A speed given in km/h, as m/s."""
+    return positive(text) / 3.6
+
+
 def index(text: str) -> int:
     return _number(text, int, ok=lambda v: v >= 0, expected="an integer >= 0 (0-based)")
+
+
+# ------------------------------------------------- options spelt the same by every command
+def add_speed(p: argparse.ArgumentParser, prefix: str = "") -> None:
+    """--speed-kmh KMH, stored as ``args.speed`` in m/s; the older --speed M/S is still read
+    (hidden)."""
+    p.add_argument("--speed-kmh", dest="speed", type=kmh, default=None, metavar="KMH",
+                   help=f"{prefix}train speed in km/h (overrides the metadata)")
+    p.add_argument("--speed", dest="speed", type=positive, default=None,
+                   help=argparse.SUPPRESS)
+
+
+def add_workers(p: argparse.ArgumentParser, what: str = "parallel processes") -> None:
+    """--workers N with the one default of every command: all cores, at most 8."""
+    p.add_argument("--workers", type=count, default=None, metavar="N",
+                   help=f"{what} (default: all cores, at most {MAX_WORKERS})")
+
+
+MAX_WORKERS = 8
+
+
+def workers_from_args(args) -> int:
+    """--workers, or all cores (at most MAX_WORKERS)."""
+    import os
+
+    return args.workers or max(1, min(os.cpu_count() or 1, MAX_WORKERS))
+
+
+def add_hidden_alias(p, option: str, dest: str, **kwargs) -> None:
+    """An older spelling of an option: still read, not shown in --help."""
+    p.add_argument(option, dest=dest, help=argparse.SUPPRESS, **kwargs)
 
 
 def parse_use(text: str) -> tuple[str, ...]:

@@ -5,15 +5,14 @@ import argparse
 import sys
 from pathlib import Path
 
-from .common import (count, finite, index, mm_length, non_negative, parse_use, positive,
-                     report_written)
+from .common import (add_speed, add_workers, count, finite, index, mm_length, non_negative,
+                     parse_use, positive, report_written, workers_from_args)
 
 
 # ------------------------------------------------------------ pass-by decay rate
 def recording_args(p: argparse.ArgumentParser, prefix: str = "") -> None:
     """The options that say what the recordings do not: speed, axle spacing, channel."""
-    p.add_argument("--speed", type=positive, default=None, metavar="M/S",
-                   help=f"{prefix}train speed in m/s (overrides the metadata)")
+    add_speed(p, prefix)
     p.add_argument("--axle-spacing", type=positive, default=None, metavar="M",
                    help=f"{prefix}bogie axle spacing in m, to find the speed when it is not "
                         "known")
@@ -26,8 +25,10 @@ def tdr_passby_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("recordings", nargs="+", type=Path, metavar="RECORDING",
                    help="pass-by recordings: .npz or .wav, each with a .toml or .json "
                         "metadata file of the same name (quantity, fs_hz, speed_m_s, ...)")
-    p.add_argument("--f-low", type=positive, default=100.0, help="lowest band (Hz)")
-    p.add_argument("--f-high", type=positive, default=5000.0, help="highest band (Hz)")
+    p.add_argument("--f-low", type=positive, default=100.0, metavar="HZ",
+                   help="lowest band (Hz, default 100)")
+    p.add_argument("--f-high", type=positive, default=5000.0, metavar="HZ",
+                   help="highest band (Hz, default 5000)")
     recording_args(p)
     p.add_argument("--l1", type=positive, default=1.0, metavar="M",
                    help="energy window around each wheel, m (default 1)")
@@ -138,8 +139,7 @@ def fit_args(p: argparse.ArgumentParser) -> None:
                    help="highest frequency (Hz) of the FRF points fitted (default: all)")
     p.add_argument("--starts", type=count, default=8, metavar="N",
                    help="multi-start points (Sobol, default 8)")
-    p.add_argument("--workers", type=count, default=None, metavar="N",
-                   help="parallel processes (default: all cores)")
+    add_workers(p)
     p.add_argument("--seed", type=int, default=0, help="seed of the start points")
     p.add_argument("--no-profiles", action="store_true", help="skip the profile likelihoods")
     p.add_argument("--out", type=Path, default=Path("railfem-output/fit"), metavar="DIR",
@@ -184,7 +184,7 @@ def fit_run(args) -> int:
     s = run_fit(args.data, args.out, model=args.model, use=use, parameters=params,
                 select=args.select, row=args.row, campaign=args.campaign,
                 scheduler=args.scheduler, base=base, n_starts=args.starts,
-                workers=args.workers, seed=args.seed,
+                workers=workers_from_args(args), seed=args.seed,
                 transfer_positions=args.transfer_positions, f_range=f_range_from_args(args),
                 profiles=() if args.no_profiles else ("kp", "kb"),
                 command=" ".join(sys.argv))
@@ -231,8 +231,7 @@ def diagnose_args(p: argparse.ArgumentParser) -> None:
     base_args(p)
     p.add_argument("--starts", type=count, default=4, metavar="N",
                    help="multi-start points of the base fit (default 4)")
-    p.add_argument("--workers", type=count, default=1, metavar="N",
-                   help="parallel processes of the base fit (default 1)")
+    add_workers(p, "parallel processes of the base fit")
     p.add_argument("--reference", type=Path, default=None, metavar="REF",
                    help="diagnose against a reference section: REF a dataset or decay-rate "
                         "table of it (rows of the same date where the table has them), or "
@@ -256,7 +255,7 @@ def diagnose_run(args) -> int:
                   f_high=5000.0 if args.f_high is None else args.f_high)
     s = run_diagnose(args.data, args.out, model=args.model, select=args.select,
                      group=args.group, spacing=args.spacing, effects=effects,
-                     n_starts=args.starts, workers=args.workers, passby=passby,
+                     n_starts=args.starts, workers=workers_from_args(args), passby=passby,
                      f_range=f_range_from_args(args), base=base_from_args(args),
                      reference=args.reference, reference_select=args.reference_select,
                      command=" ".join(sys.argv))

@@ -5,8 +5,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from .common import (add_track_options, apply_track_options, count, non_negative, positive,
-                     report_written)
+from .common import (add_speed, add_track_options, add_workers, apply_track_options,
+                     non_negative, positive, report_written, workers_from_args)
 
 
 # ------------------------------------------------------------------------ pass-by
@@ -24,14 +24,16 @@ def passby_args(p: argparse.ArgumentParser) -> None:
     add_track_options(p)
     p.add_argument("--train", type=Path, metavar="FILE", help="train layout (TOML/JSON); "
                    "default 6 cars, 24 wheels over 120 m")
-    p.add_argument("--speed-kmh", type=positive, help="train speed (km/h, default 216)")
+    p.add_argument("--speed-kmh", type=positive, metavar="KMH",
+                   help="train speed in km/h (default 216)")
     p.add_argument("--roughness", type=Path, metavar="FILE", help="roughness spectrum: "
                    "wavelength_m,level_db_re_1um CSV or the SBB wide table")
     p.add_argument("--roughness-hold", action="store_true",
                    help="hold the roughness spectrum's end levels beyond its wavelengths")
     p.add_argument("--wheel", help="rigid (default), flexible, or an FRF CSV file")
-    p.add_argument("--f-low", type=positive, help="lowest band (Hz, default 100)")
-    p.add_argument("--f-high", type=positive, help="highest band (Hz, default 5000)")
+    p.add_argument("--f-low", type=positive, metavar="HZ", help="lowest band (Hz, default 100)")
+    p.add_argument("--f-high", type=positive, metavar="HZ",
+                   help="highest band (Hz, default 5000)")
     p.add_argument("--form", choices=FORMS, help="incoherent sum: exact (default) or paper")
     p.add_argument("--no-interaction", action="store_true",
                    help="neglect interference between wheels (diagonal rail mobility)")
@@ -109,13 +111,14 @@ def roughness_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--wheel", default="rigid", help="rigid (default), flexible or an FRF CSV")
     p.add_argument("--contact-filter", default="analytical",
                    help="analytical (default), numerical or none")
-    p.add_argument("--speed", type=positive, default=None, metavar="M/S",
-                   help="train speed in m/s (overrides the metadata)")
+    add_speed(p)
     p.add_argument("--wheel-snr", type=positive, default=None, metavar="DB",
                    help="wheel detector threshold above the record's median, dB (default "
                         "20; 12 for long trains in short records)")
-    p.add_argument("--f-low", type=positive, default=100.0, help="lowest band (Hz)")
-    p.add_argument("--f-high", type=positive, default=5000.0, help="highest band (Hz)")
+    p.add_argument("--f-low", type=positive, default=100.0, metavar="HZ",
+                   help="lowest band (Hz, default 100)")
+    p.add_argument("--f-high", type=positive, default=5000.0, metavar="HZ",
+                   help="highest band (Hz, default 5000)")
     p.add_argument("--out", type=Path, default=Path("railfem-output/roughness"),
                    metavar="DIR", help="output folder (default railfem-output/roughness)")
 
@@ -149,7 +152,7 @@ def study_args(p: argparse.ArgumentParser) -> None:
     s.add_argument("--noise-fraction", type=non_negative, default=0.1)
     s.add_argument("--position-error", type=non_negative, default=0.1, metavar="M")
     s.add_argument("--seed", type=int, default=0)
-    s.add_argument("--workers", type=count, default=2)
+    add_workers(s, "parallel processes, one track each")
     s.add_argument("--sbb", type=Path, default=None, metavar="CSV",
                    help="SBB rail roughness table to plot (default ../shared/... if there)")
     s.add_argument("--out", type=Path, default=Path("railfem-output/study-passby"),
@@ -164,7 +167,7 @@ def study_run(args) -> int:
                          speeds_kmh=args.speeds_kmh or SPEEDS_KMH,
                          noise_fraction=args.noise_fraction,
                          position_error=args.position_error, seed=args.seed,
-                         workers=args.workers, sbb=args.sbb,
+                         workers=workers_from_args(args), sbb=args.sbb,
                          sensitivity_track="site" if "site" in (args.tracks or STUDY_TRACKS)
                          else None)
     sys.stdout.write(f"study passby: {len(s['tracks'])} tracks in "

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import (BadInput, add_mesh_file, add_profile, count, finite, non_negative,
-                     positive, report_written)
+from .common import (BadInput, add_hidden_alias, add_mesh_file, add_profile, count, finite,
+                     non_negative, positive, report_written)
 
 
 # ------------------------------------------------------------------------- mesh
@@ -41,10 +41,12 @@ def dispersion_args(p: argparse.ArgumentParser) -> None:
     add_profile(p)
     add_mesh_file(p)
     g = p.add_argument_group("frequencies (k(omega), default) or wavenumbers (omega(k))")
-    g.add_argument("--f-low", "--fmin", dest="fmin", type=positive, default=None,
+    g.add_argument("--f-low", dest="fmin", type=positive, default=None,
                    metavar="HZ", help="lowest frequency in Hz (default 50)")
-    g.add_argument("--f-high", "--fmax", dest="fmax", type=positive, default=None,
+    g.add_argument("--f-high", dest="fmax", type=positive, default=None,
                    metavar="HZ", help="highest frequency in Hz (default 5000)")
+    add_hidden_alias(g, "--fmin", "fmin", type=positive, default=None)
+    add_hidden_alias(g, "--fmax", "fmax", type=positive, default=None)
     g.add_argument("--n", type=count, default=None,
                    help="number of frequencies from --f-low to --f-high (default 100)")
     g.add_argument("--spacing", choices=("linear", "log"), default="linear",
@@ -80,7 +82,7 @@ def dispersion_run(args) -> int:
     if args.k_range is not None and (freq_opts or args.frequencies is not None):
         raise BadInput("--k-range cannot be combined with frequency options")
     if args.frequencies is not None and freq_opts:
-        raise BadInput("give either --frequencies or --fmin/--fmax/--n, not both")
+        raise BadInput("give either --frequencies or --f-low/--f-high/--n, not both")
     frequencies = k_values = None
     if args.k_range is not None:
         kmin, kmax, nk = args.k_range
@@ -96,7 +98,7 @@ def dispersion_run(args) -> int:
         fmax = 5000.0 if args.fmax is None else args.fmax
         n = 100 if args.n is None else args.n
         if fmax < fmin:
-            raise BadInput(f"--fmax ({fmax:g} Hz) must not be below --fmin ({fmin:g} Hz)")
+            raise BadInput(f"--f-high ({fmax:g} Hz) must not be below --f-low ({fmin:g} Hz)")
         frequencies = (np.geomspace if args.spacing == "log" else np.linspace)(fmin, fmax, n)
     if args.no_render:
         render = None

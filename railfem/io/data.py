@@ -102,6 +102,27 @@ def table_columns(path):
     return SBB_NIEDERWANGEN_COLUMNS if "messdatum" in head else None
 
 
+def _check_direction(path, table, crit: dict) -> None:
+    """A --select direction no row has is refused in the table's own words (its direction
+    column may say v/h where railfem's axes are z/y)."""
+    from railfem.io.tdr_table import direction_labels
+    from railfem.measurement import direction_name
+
+    want = crit.get("direction")
+    if not isinstance(want, str):
+        return
+    labels = direction_labels(path, columns=table_columns(path))
+    try:
+        axis = direction_name(want)
+    except ValueError:
+        axis = None
+    if axis is None or axis not in set(table.direction):
+        have = ", ".join(f"{'/'.join(v)}" for v in labels.values()) or ", ".join(
+            sorted(set(table.direction)))
+        raise ValueError(f"--select dir={want}: no row of {path} has that direction; its "
+                         f"rows have dir = {have}")
+
+
 def read_data(path, *, select=None, row=None, campaign=False):
     """(kind, items): ('hammer', [measurement]) or ('table', [(row index, measurement)]).
 
@@ -127,6 +148,7 @@ def read_data(path, *, select=None, row=None, campaign=False):
     index = np.arange(len(table))
     crit = parse_select(select) if isinstance(select, str) else dict(select or {})
     if crit:
+        _check_direction(path, table, crit)
         keep = table.select(**crit)
         index = np.array([i for i in range(len(table))
                           if any(table.metadata[i] is m for m in keep.metadata)])

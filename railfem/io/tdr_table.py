@@ -104,6 +104,24 @@ def read_decay_rate_table(path: str | os.PathLike, *, columns: Mapping[str, str]
                           metadata=tuple(metas), sensor=tuple(sensors))
 
 
+def direction_labels(path: str | os.PathLike, *, columns: Mapping[str, str] | None = None,
+                     delimiter: str = ",") -> dict[str, list[str]]:
+    """{axis name: the labels the table's own direction column uses for it} (e.g. {'z':
+    ['v'], 'y': ['h']}), for messages in the data's words; {} without a direction column."""
+    table = read_table(Path(path), delimiter)
+    col = dict(columns or {}).get("direction", "direction")
+    if col not in table.header:
+        return {}
+    out: dict[str, set] = {}
+    for _, cells in table.rows:
+        label = cells[table.index(col)].strip()
+        try:
+            out.setdefault(direction_name(label), set()).add(label)
+        except ValueError:
+            continue
+    return {axis: sorted(labels) for axis, labels in sorted(out.items())}
+
+
 def _direction(path, n, col, text, default) -> str:
     value = text if col is not None else default
     try:
