@@ -53,6 +53,11 @@ from railfem.identify.problem import table
 
 ALPHA = 0.01
 NEGLIGIBLE_DB = 0.5  # structure below this RMS (dB) is not worth a mechanism
+# a candidate's change must reach this share of the discrepancy (mean squares, held out):
+# an RMS change under about a third of the discrepancy's is what another discretisation
+# of the base does (set on the cross-model runs: false candidates on clean data 0.0002 -
+# 0.04, a frequency-dependent pad the base had half absorbed 0.12)
+BEYOND_RATIO = 0.1
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -281,9 +286,13 @@ def beyond_discrepancy(data, pred_ref: dict, pred_c: dict, discrepancy, *, part=
                        alpha: float = ALPHA) -> dict | None:
     """Whether a candidate changes the prediction by more than the model-form discrepancy:
     the discrepancy test (discrepancy_test, no noise) on the change model_c - model_ref
-    over ``part`` of every record; 'pass' when it rejects at ``alpha`` (a change within the
-    discrepancy is what another discretisation of the base could do as well). None
-    without discrepancy (a Discrepancy, or a Scale that carries one)."""
+    over ``part`` of every record; 'pass' when the change's mean square reaches a share of
+    the discrepancy's (ratio R > BEYOND_RATIO: a change well within the discrepancy is what
+    another discretisation of the base could do as well; its p-value is reported, not
+    required:
+    the discrepancy is known only roughly, and the held-out test already weighs each entry
+    by noise plus discrepancy). None without discrepancy (a Discrepancy, or a Scale that
+    carries one)."""
     discrepancy = getattr(discrepancy, "discrepancy", discrepancy)
     if discrepancy is None:
         return None
@@ -294,7 +303,7 @@ def beyond_discrepancy(data, pred_ref: dict, pred_c: dict, discrepancy, *, part=
     out = discrepancy_test(change, 0.0)
     if out is None:
         return None
-    out["pass"] = bool(out["p"] < alpha)
+    out["pass"] = bool(out["ratio"] > BEYOND_RATIO)
     return out
 
 
