@@ -68,7 +68,7 @@ COMMANDS = {
     "mobility": (mobility_args, mobility_run,
                  "free-rail point and transfer mobilities (CSV, plot)"),
     "track": (track_args, track_run,
-              "supported track of a Table 1 preset: mobilities, EN 15461 decay rates, plots"),
+              "supported track (a preset or a config): mobilities, EN 15461 decay rates, plots"),
     "support-convergence": (support_args, support_run,
                             "rail-on-pad peak (and decay rates) vs section mesh, springs "
                             "across the foot and rows along the pad"),

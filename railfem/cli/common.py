@@ -140,7 +140,7 @@ def add_track_options(p: argparse.ArgumentParser, *, rail: bool = True) -> None:
     g.add_argument("--eta-r", type=non_negative, default=None, metavar="ETA",
                    help="rail loss factor (-)")
     g.add_argument("--spacing", type=positive, default=None, metavar="MM",
-                   help="sleeper spacing, mm (Table 1: 600)")
+                   help="sleeper spacing, mm (presets: 600)")
     g.add_argument("--pad-length", type=non_negative, default=None, metavar="MM",
                    help="pad length along the rail, mm (default 150 on discrete and "
                         "periodic models; 0 = point supports, the published configuration)")

@@ -148,8 +148,8 @@ def fit_args(p: argparse.ArgumentParser) -> None:
 
 def base_args(p: argparse.ArgumentParser) -> None:
     """The base model's options, the same for fit and diagnose (railfem.identify.base)."""
-    p.add_argument("--preset", default="site", help="spec whose other values are kept "
-                   "(Table 1 preset, default site; the data's sleeper spacing is used)")
+    p.add_argument("--preset", default="site", help="spec whose other values are kept (a "
+                   "preset of docs/presets.md, default site; the data's sleeper spacing is used)")
     p.add_argument("--pad-length", type=non_negative, default=None, metavar="MM",
                    help="support footprint of the base model: a pad of this length in mm "
                         "(one spring row spread over it); default 0, point supports (fit: "

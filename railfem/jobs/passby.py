@@ -76,7 +76,7 @@ def track_of(track, options: dict):
                       model=options.get("model", DEFAULTS["model"]))
     if not isinstance(track, TrackSpec):
         raise ValueError(f"track = {track!r}: give a railfem.spec.TrackSpec (or the preset "
-                         "option with a Table 1 name)")
+                         "option with a preset name)")
     if "preset" in options:
         raise ValueError("give either a track (TrackSpec) or a preset, not both")
     return track.replace(model=options["model"]) if "model" in options else track
