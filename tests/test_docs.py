@@ -157,7 +157,7 @@ def _run(block: Block, state: DocState) -> None:
 
 def _params():
     for b in ALL:
-        marks = []
+        marks = [pytest.mark.xdist_group(b.doc)]  # a document's chained blocks: one worker
         if b.mark == "slow":
             marks.append(pytest.mark.slow)
         elif b.mark == "skip":

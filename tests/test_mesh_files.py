@@ -132,7 +132,16 @@ def test_mesh_file_errors(tmp_path, asym_msh):
                      "--no-render", "--out", str(tmp_path / "d")]) == 2
 
 
-def test_dispersion_and_mobility_commands_on_a_user_mesh(tmp_path, asym_msh, capsys):
+@pytest.fixture(scope="module")
+def asym_msh_coarse(tmp_path_factory):
+    """The asymmetric rail at 10 mm (the commands' own test: a full-family solve costs a
+    third of the 6 mm one)."""
+    return write_gmsh_p2(tmp_path_factory.mktemp("msh") / "asym10.msh", asymmetric_outline(),
+                         0.010, 4.1)
+
+
+def test_dispersion_and_mobility_commands_on_a_user_mesh(tmp_path, asym_msh_coarse, capsys):
+    asym_msh = asym_msh_coarse
     out = tmp_path / "disp"
     assert cli.main(["-q", "dispersion", "--mesh", str(asym_msh), "--mesh-units", "m",
                      "--mesh-axes", "xy", "--frequencies", "300", "2000", "--no-render",
