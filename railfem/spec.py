@@ -486,14 +486,15 @@ def parse_value(key: str, value, kind: str):
     return float(value)
 
 
-def _section(prefix: str, table, kinds: dict) -> dict:
+def _section(prefix: str, table, kinds: dict, tables=()) -> dict:
     if not isinstance(table, dict):
         raise ValueError(f"{prefix} must be a table of keys, got {table!r}")
     out = {}
     for key, value in table.items():
         name = f"{prefix}.{key}" if prefix else key
         if key not in kinds:
-            raise ValueError(f"unknown key {name!r}; valid keys: {', '.join(kinds)}")
+            also = f"; valid tables: {', '.join(tables)}" if tables else ""
+            raise ValueError(f"unknown key {name!r}; valid keys: {', '.join(kinds)}{also}")
         out[key] = parse_value(name, value, kinds[key])
     return out
 
@@ -505,7 +506,8 @@ def spec_from_dict(d: dict, base: TrackSpec | None = None) -> TrackSpec:
         raise ValueError(f"a track spec must be a table of keys, got {type(d).__name__}")
     sections = {k for k in SCHEMA if k} | {"deviations"}
     top = {k: x for k, x in d.items() if k not in sections}
-    top = _section("", top, SCHEMA[""])
+    top = _section("", top, SCHEMA[""], tables=[f"[{k}]" for k in SCHEMA if k and k != "deviation"]
+                   + ["[[deviations]]"])
     if "preset" in top:
         if top["preset"] not in PRESETS:
             raise ValueError(f"preset = {top['preset']!r} is unknown; use one of "

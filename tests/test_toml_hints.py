@@ -37,3 +37,11 @@ def test_descriptor_typo_names_keys_and_tables_apart(tmp_path):
     keys, tables = msg.split("valid keys: ")[1].split("; valid tables: ")
     assert "sleeper_spacing_m" in keys and "sensors" not in keys
     assert "[sensors]" in tables and "[csv]" in tables and "[metadata]" in tables
+
+
+def test_spec_dict_typo_names_keys_and_tables():
+    from railfem.spec import spec_from_dict
+
+    with pytest.raises(ValueError, match=r"'suport'; valid keys: .*preset.*; valid tables: "
+                                         r".*\[support\].*\[numerics\]"):
+        spec_from_dict({"suport": {"kp": "600 MN/m"}})
