@@ -304,6 +304,7 @@ def beyond_discrepancy(data, pred_ref: dict, pred_c: dict, discrepancy, *, part=
     if out is None:
         return None
     out["pass"] = bool(out["ratio"] > BEYOND_RATIO)
+    out["significant"] = bool(out["p"] < alpha)  # above the discrepancy at alpha (reported)
     return out
 
 
