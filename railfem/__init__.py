@@ -2,7 +2,8 @@
 
 The main public names are available here (the model door of railfem.models, the track
 specification of railfem.spec, the parameter space of railfem.params and the FRF
-container); everything else lives in its module (``railfem.track.wfe``, ``railfem.track.beams``, ...).
+container); everything else lives in its module (``railfem.track.wfe``,
+``railfem.track.beams``, ...).
 
 They are loaded on first use (PEP 562): ``import railfem`` itself imports neither numpy
 nor scipy, so a program (the ``railfem`` command among them) can still choose its BLAS

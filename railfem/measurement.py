@@ -198,7 +198,8 @@ class HammerMeasurement:
 
     def __post_init__(self) -> None:
         if not isinstance(self.frf, FRF):
-            raise ValueError(f"HammerMeasurement.frf must be an FRF, got {type(self.frf).__name__}.")
+            raise ValueError("HammerMeasurement.frf must be an FRF, "
+                             f"got {type(self.frf).__name__}.")
         x = v.strictly_increasing("HammerMeasurement.positions", self.positions, "m")
         n_freq, n_out, n_in = self.frf.shape
         if x.size != n_in:
@@ -292,7 +293,8 @@ class HammerMeasurement:
 def _band_axis(name: str, frequency) -> np.ndarray:
     f = v.strictly_increasing(name, frequency, "Hz")
     if f.size == 0 or f[0] <= 0.0:
-        raise ValueError(f"{name} must hold positive band centre frequencies (Hz), got {f.tolist()}.")
+        raise ValueError(f"{name} must hold positive band centre frequencies (Hz), "
+                         f"got {f.tolist()}.")
     return f
 
 

@@ -249,7 +249,6 @@ def test_labels_of_all_waves_at_once_equal_the_per_wave_projection():
     w = waves.waves_at(ops, 2 * np.pi * 300.0, method="shift-invert", n_waves=30)
     full = ops.T @ w.phi
     M = g.M
-    y, z = g.nodes[:, 0], g.nodes[:, 1]
     expected = []
     for j in range(full.shape[1]):
         u = full[:, j]

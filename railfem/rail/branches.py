@@ -185,10 +185,10 @@ def branch_labels(point_label, position, window: float) -> np.ndarray:
     point_label: (n, nb) names, '' (or None) where a branch is absent. position: (n,) or
     (n, nb) sweep coordinate, increasing along axis 0 (ln f for k(omega), k for omega(k)).
     Each point weighs the stretch of position half way to its neighbours on the branch (cut
-    at the window's end), so the vote does not depend on the grid spacing. Near its start a branch is a beam wave (low
-    frequency, small k) or a cross-section mode just cut on: the shapes the labeller's rules
-    describe. Further on, branches that veer past each other exchange their character and
-    the labeller's names along one branch change with it.
+    at the window's end), so the vote does not depend on the grid spacing. Near its start a
+    branch is a beam wave (low frequency, small k) or a cross-section mode just cut on: the
+    shapes the labeller's rules describe. Further on, branches that veer past each other
+    exchange their character and the labeller's names along one branch change with it.
     """
     point_label = np.asarray(point_label, dtype=object)
     position = np.broadcast_to(np.asarray(position, dtype=float)[..., None]
@@ -264,7 +264,10 @@ def _assemble(sweep, x, per_family, position, window) -> Branches:
                 if prev is not None:
                     m_col[p] = mac(prev[:, None], shapes[p][:, j:j + 1], weight)[0, 0]
                 prev = shapes[p][:, j]
-            cols_f.append(f_col); cols_k.append(k_col); plabs.append(l_col); macs.append(m_col)
+            cols_f.append(f_col)
+            cols_k.append(k_col)
+            plabs.append(l_col)
+            macs.append(m_col)
             fams.append(fam)
     n = len(x)
     frequency = np.column_stack(cols_f) if cols_f else np.empty((n, 0))
@@ -310,7 +313,9 @@ def k_of_omega(guide: Waveguide, frequency, *, families=None, method: str = "shi
             keep = propagating_mask(w.k, max_attenuation)
             phi = w.phi[:, keep]
             ks, fs, ls, ss = data[fam]
-            ks.append(w.k[keep]); fs.append(np.full(keep.sum(), fi)); ss.append(phi)
+            ks.append(w.k[keep])
+            fs.append(np.full(keep.sum(), fi))
+            ss.append(phi)
             ls.append(label_shapes(guide, op, phi) if phi.shape[1] else [])
         if progress:
             progress(i + 1, len(f))

@@ -46,7 +46,8 @@ class Location:
     weights: np.ndarray
 
 
-def point(guide: Waveguide, node: int | str, direction: str = "z", label: str | None = None) -> Location:
+def point(guide: Waveguide, node: int | str, direction: str = "z",
+          label: str | None = None) -> Location:
     """Unit weight on one DOF: node index or single-node set name ('head_top', 'foot_sensor')."""
     w = np.zeros(guide.n_dofs)
     w[guide.dof(node, direction)] = 1.0
@@ -198,7 +199,8 @@ def free_receptance(guide: Waveguide, frequency, force: list[Location], response
             raise ValueError(f"{name} must be a finite length >= 0 m, got {val!r}")
     Fw = np.column_stack([loc.weights for loc in force])
     Rw = np.column_stack([loc.weights for loc in response])
-    fams = [fr for fr in (FamilyResponse(guide, fam, Fw, Rw) for fam in guide.families) if fr.active]
+    fams = [fr for fr in (FamilyResponse(guide, fam, Fw, Rw) for fam in guide.families)
+            if fr.active]
     out = np.zeros((len(f), len(response), len(x), len(force)), dtype=complex)
     tails = {fr.ops.family: frozen_tail(fr.ops, 2 * np.pi * f.min(), n_waves)
              for fr in fams if tail and method == "shift-invert"}

@@ -270,9 +270,13 @@ def _family(name: str, nodes: np.ndarray, node_dofs: np.ndarray, image: np.ndarr
         for c in range(3):
             if on_axis and signs[c] < 0:
                 continue  # a component odd under the mirror vanishes on the axis
-            rows.append(node_dofs[i, c]); cols.append(col); vals.append(1.0)
+            rows.append(node_dofs[i, c])
+            cols.append(col)
+            vals.append(1.0)
             if not on_axis:
-                rows.append(node_dofs[image[i], c]); cols.append(col); vals.append(float(signs[c]))
+                rows.append(node_dofs[image[i], c])
+                cols.append(col)
+                vals.append(float(signs[c]))
             comp.append(c)
             col += 1
     T = sp.csr_matrix((vals, (rows, cols)), shape=(node_dofs.size, col))

@@ -404,7 +404,8 @@ def discrete_kernel(section: BeamSection, spring_x, omega, force_x, response_x, 
         terms = (one, res[i][:, None], one, res[i][:, None])
         for name, (u, Lf, Lr) in parts.items():
             g[name][i] = residue_sum(terms, k[i], u, Lf, Lr).transpose(1, 0, 2)
-    return DiscreteKernel(frequency=w / (2 * np.pi), spring_weight=np.ones(1), spring_x=xs, ss=g["ss"],
+    return DiscreteKernel(frequency=w / (2 * np.pi), spring_weight=np.ones(1), spring_x=xs,
+                          ss=g["ss"],
                           ss_sep=u_ss, ss_index=i_ss, sP=g["sP"][..., 0], sP_index=i_sP,
                           rs=g["rs"],
                           rs_index=i_rs, rP=g["rP"][..., 0], rP_index=i_rP)
@@ -534,7 +535,8 @@ def lateral_matrices(section: LateralSection, omega: float, k_y=0.0, k_theta=0.0
     z_spring (m, the foot underside) and rotational stiffness k_theta (N m/m/rad)."""
     c = 1 + 1j * section.eta
     s = section.kappa_y * section.G * section.area * c
-    EI, GJ, EG = section.E * section.I_z * c, section.G * section.J * c, section.E * section.Gamma * c
+    EI, GJ = section.E * section.I_z * c, section.G * section.J * c
+    EG = section.E * section.Gamma * c
     rA = section.rho * section.area
     M = np.array([[rA, 0, -rA * section.e], [0, section.rho * section.I_z, 0],
                   [-rA * section.e, 0, section.rho * (section.I_p + section.area * section.e**2)]])

@@ -5,7 +5,8 @@ A supported track is solved in two steps:
 * the **kernel**: free-rail Green's functions (receptances) between the support springs, the
   loads and the responses, per frequency. It depends on the rail, the positions and the
   frequency grid, never on the support parameters, so it is computed once (railfem.track.wfe
-  for the WFE rail, railfem.track.beams for the Timoshenko beam) and cached (railfem.track.kernelcache);
+  for the WFE rail, railfem.track.beams for the Timoshenko beam) and cached
+  (railfem.track.kernelcache);
 * the **coupling**: with K the springs' dynamic stiffness (F the forces the rail puts on
   the springs, alpha the kernel's receptances)
 

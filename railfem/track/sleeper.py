@@ -339,4 +339,5 @@ def clear_cache() -> None:
 
 
 __all__ = ["clear_cache", "Sleeper", "B90", "B90_SECTION", "rectangular_section", "load_case",
-           "half_nodes", "ballast_stiffness", "TWO_LAYER_ASSUMED", "seat_stiffness", "SLEEPER_MODELS", "CASES"]
+           "half_nodes", "ballast_stiffness", "TWO_LAYER_ASSUMED", "seat_stiffness",
+           "SLEEPER_MODELS", "CASES"]
