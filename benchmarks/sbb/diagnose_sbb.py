@@ -250,8 +250,9 @@ def markdown(results, command, lateral=None) -> str:
             L.append(f"| {c:g} | {part} | {fmt(mb[c])} | {fmt(ma.get(c))} |")
     if lateral:
         L += ["", "## Lateral rows", "", lateral.get("note", ""), ""]
-        meas = lateral["measured"]["median_dB_per_m"]
-        fw = lateral.get("forward") or {}
+        meas = {float(c): v for c, v in lateral["measured"]["median_dB_per_m"].items()}
+        fw = {t: {float(c): v for c, v in d.items()} for t, d in
+              (lateral.get("forward") or {}).items()}
         hdr = ["band (Hz)", "measured median (dB/m)"] + [f"model: {k}" for k in fw]
         L += ["| " + " | ".join(hdr) + " |", "|" + "---|" * len(hdr)]
         for c in sorted(float(k) for k in meas):
