@@ -17,9 +17,10 @@ forward differences cost (1 + parameters) solves ("jac direct s", computed from 
 measured direct time: 2 solves for voided_sleeper's one fitted factor, 67 for the 66
 factors of random_support), the Woodbury path one call with its closed-form tangents
 ("+tang s"). Both in the same run; "ratio" is direct / Woodbury per evaluation, "jac
-ratio" per Jacobian; "diff" is the largest difference of the two (relative to each frequency's point receptance: the two solve
-supports re-centred on each pair vs at absolute positions, which differ by the truncation
-of the supported stretch). Written to benchmarks/results/results_woodbury.txt.
+ratio" per Jacobian; "diff" is the largest difference of the two (relative to each
+frequency's point receptance: the two solve supports re-centred on each pair vs at
+absolute positions, which differ by the truncation of the supported stretch). Written to
+benchmarks/results/results_woodbury.txt.
 """
 from __future__ import annotations
 

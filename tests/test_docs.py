@@ -22,7 +22,7 @@ An HTML comment on the line before a block marks it:
 Skipped blocks (4):
 
 * README.md, ``bash scripts/setup.sh && railfem track ...``: installs system and Python packages;
-* README.md, ``bash scripts/setup.sh && python3 -m pytest``: installs packages, runs the tests;
+* README.md, ``bash scripts/setup.sh && python3 -m ruff check && python3 -m pytest``: installs packages, runs the tests;
 * README.md, ``python3 -m venv ...`` (set-up into a virtual environment): installs packages;
 * README.md, ``python3 -m pytest`` (the test commands): the test suite itself.
 

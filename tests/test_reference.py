@@ -109,6 +109,7 @@ def test_blind_rail_damper_is_named_and_the_rail_loss_stays_in_its_range():
     assert d.chosen.eta_r == pytest.approx(0.02, rel=0.1)
 
 
+@pytest.mark.slow  # a diagnosis with the rail-loss profile: ~1 min
 def test_a_band_of_dampers_is_credited_to_the_damper_not_to_the_rail_loss():
     """Heavy lossy dampers over 444-2250 Hz, which a fit of the base alone explains by a
     rail loss factor of 0.072 (above the range): the diagnosis's base keeps eta_r inside
@@ -124,6 +125,7 @@ def test_a_band_of_dampers_is_credited_to_the_damper_not_to_the_rail_loss():
     assert d.chosen.eta_r == pytest.approx(0.02, rel=0.15)
 
 
+@pytest.mark.slow  # a diagnosis with the rail-loss profile: ~1 min
 def test_damped_section_against_its_undamped_reference_names_added_rail_damping():
     """A damped section (BAND: 470-1050 Hz) against its undamped reference (another noise
     seed): the base held at the reference's, 'added rail damping' named with its band; the

@@ -200,7 +200,8 @@ def markdown(results, command, lateral=None) -> str:
          "sleepers ~100-200 Hz), sleeper loss factor 0.02; assumed two-layer ballast "
          f"mb {TWO_LAYER_ASSUMED['mb']:.0f} kg, kf {TWO_LAYER_ASSUMED['kf'] / 1e6:.0f} MN/m, "
          f"eta_f {TWO_LAYER_ASSUMED['eta_f']}.", "",
-         "| group | verdict | chosen | best by BIC (ΔBIC, held-out gain) | structured before → after (dB) | s |",
+         "| group | verdict | chosen | best by BIC (ΔBIC, held-out gain) "
+         "| structured before → after (dB) | s |",
          "|---|---|---|---|---|---|"]
     for g in results:
         r0 = g["ranking"][0] if g["ranking"] else None
@@ -212,7 +213,8 @@ def markdown(results, command, lateral=None) -> str:
     L += ["", "## The new effects per group", "",
           "ΔBIC against the base (negative: better), held-out gain (fraction of the held-out "
           "mean square removed) with its p-value, plausible, fitted values (95 % interval).", "",
-          "| group | effect | ΔBIC | held-out gain (p) | plausible | fitted |", "|---|---|---|---|---|---|"]
+          "| group | effect | ΔBIC | held-out gain (p) | plausible | fitted |",
+          "|---|---|---|---|---|---|"]
     for g in results:
         for n in NEW:
             e = g["new"][n]
@@ -232,7 +234,8 @@ def markdown(results, command, lateral=None) -> str:
     for g in results:
         bb, ba = g["bands_before"], g["bands_after"] or {}
         L += [f"**{g['group']}** (after: {g['after'] or '—'})", "",
-              "| band (Hz) | part | s_b | RMS before | RMS after | structured before | structured after |",
+              "| band (Hz) | part | s_b | RMS before | RMS after | structured before "
+              "| structured after |",
               "|---|---|---|---|---|---|---|"]
         for part in ("fit", "held"):
             for c in sorted(bb[part]):

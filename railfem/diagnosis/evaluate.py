@@ -177,7 +177,10 @@ class Evaluator:
                                  for d in spec.deviations])
         n_out = len(record.fit.outputs)
         idx = [d.index for d in spec.deviations]
-        fit = (lambda a: np.repeat(a, n_out, axis=1) if a.shape[1] != n_out else a)
+
+        def fit(a):
+            return np.repeat(a, n_out, axis=1) if a.shape[1] != n_out else a
+
         if not gradient:
             return fit(su.receptance(K, k_dev, idx, pairs=pairs))
         a, da = su.receptance(K, k_dev, idx, gradient=True, pairs=pairs)
