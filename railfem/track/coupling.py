@@ -38,8 +38,28 @@ def unique_separations(sep: np.ndarray, decimals: int = 12):
     return u, inv.reshape(sep.shape)
 
 
+class KernelArrays:
+    """What both kernel kinds share: vertical springs unless told otherwise, and the
+    conversion to and from the named arrays the kernel cache stores."""
+
+    def __post_init__(self):
+        # spring_direction: (n_p,) direction of each spring of a set, 0/1/2 = x/y/z;
+        # kernels without it (vertical models, cached before it existed) are vertical
+        d = self.spring_direction
+        d = np.full(len(self.spring_weight), 2) if d is None else np.asarray(d)
+        object.__setattr__(self, "spring_direction", d.astype(np.int64))
+
+    def to_arrays(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+    @classmethod
+    def from_arrays(cls, arrays: dict):
+        return cls(**{f.name: np.asarray(arrays[f.name]) for f in fields(cls)
+                      if f.name in arrays})
+
+
 @dataclass(frozen=True, kw_only=True, eq=False)
-class DiscreteKernel:
+class DiscreteKernel(KernelArrays):
     """Free-rail receptances of a rail with ``n_s`` spring sets of ``n_p`` springs each.
 
     frequency: (nf,) Hz. spring_weight: (n_p,) share of a support carried by each spring of
@@ -64,30 +84,12 @@ class DiscreteKernel:
     rP_index: np.ndarray
     spring_direction: np.ndarray | None = None
 
-    def __post_init__(self):
-        _default_directions(self)
-
-    def to_arrays(self) -> dict:
-        return {f.name: getattr(self, f.name) for f in fields(self)}
-
-    @classmethod
-    def from_arrays(cls, arrays: dict) -> "DiscreteKernel":
-        return cls(**{f.name: np.asarray(arrays[f.name]) for f in fields(cls)
-                      if f.name in arrays})
 
     @property
     def shape(self) -> tuple[int, int, int, int]:
         """(n_s, n_p, n_rx, n_fx)."""
         return (self.ss_index.shape[0], len(self.spring_weight), self.rP_index.shape[0],
                 self.rP_index.shape[1])
-
-
-def _default_directions(kernel) -> None:
-    """spring_direction: (n_p,) direction of each spring of a set, 0/1/2 = x/y/z; kernels
-    without it (vertical models, cached before it existed) have vertical springs."""
-    d = kernel.spring_direction
-    d = np.full(len(kernel.spring_weight), 2) if d is None else np.asarray(d)
-    object.__setattr__(kernel, "spring_direction", d.astype(np.int64))
 
 
 def _row_scaling(K: np.ndarray, alpha0: np.ndarray):
@@ -270,7 +272,7 @@ def couple_discrete(kernel: DiscreteKernel, stiffness) -> np.ndarray:
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
-class PeriodicKernel:
+class PeriodicKernel(KernelArrays):
     """Floquet lattice sums of a rail on infinitely many identical supports at n * spacing.
 
     Each support has n_r rows (offsets o_a within the cell) of n_p springs. With
@@ -299,16 +301,6 @@ class PeriodicKernel:
     direct: np.ndarray
     spring_direction: np.ndarray | None = None
 
-    def __post_init__(self):
-        _default_directions(self)
-
-    def to_arrays(self) -> dict:
-        return {f.name: getattr(self, f.name) for f in fields(self)}
-
-    @classmethod
-    def from_arrays(cls, arrays: dict) -> "PeriodicKernel":
-        return cls(**{f.name: np.asarray(arrays[f.name]) for f in fields(cls)
-                      if f.name in arrays})
 
 
 def theta_mean(values: np.ndarray, theta: np.ndarray, m: np.ndarray) -> np.ndarray:
