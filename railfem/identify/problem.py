@@ -244,28 +244,23 @@ class Problem:
 
     def groups(self, x, part="fit", prediction=None) -> list:
         """[(record, quantity, residual array)] unscaled, model - measurement (dB)."""
+        return [(rec.name, q, v) for rec, t, q, v in self.entries(x, part, prediction)]
+
+    def entries(self, x, part="fit", prediction=None):
+        """(record, its target of ``part``, quantity, unscaled residual array) in order."""
         pred = self.predict(x) if prediction is None else prediction
-        out = []
-        for r in self.records:
-            t = r.fit if part == "fit" else r.held
-            if t is None:
-                continue
-            for q, v in self.rows(t, pred[r.name]).items():
-                out.append((r.name, q, v))
-        return out
+        for rec in self.records:
+            t = rec.fit if part == "fit" else rec.held
+            if t is not None:
+                for q, v in self.rows(t, pred[rec.name]).items():
+                    yield rec, t, q, v
 
     def residual(self, x, part="fit", prediction=None) -> np.ndarray:
         """Scaled residuals of ``part`` (each entry over its scale: Scale); on the fitted
         part followed by the model's prior entries (railfem.diagnosis: random effects
         shrunk towards their mean)."""
-        pred = self.predict(x) if prediction is None else prediction
-        r = []
-        for rec in self.records:
-            t = rec.fit if part == "fit" else rec.held
-            if t is None:
-                continue
-            for q, v in self.rows(t, pred[rec.name]).items():
-                r.append(v / entry_scale(self.scale, t, q, self.rows))
+        r = [v / entry_scale(self.scale, t, q, self.rows)
+             for _, t, q, v in self.entries(x, part, prediction)]
         if part == "fit":
             r += self.prior(x)
         return np.concatenate(r)
