@@ -70,6 +70,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .. import validators
 from .coupling import DiscreteKernel, couple_discrete, unique_separations
 from ..rail import section as rail_section
 from ..rail.greens import residue_sum
@@ -132,16 +133,11 @@ class BeamSection:
     include_rotary_inertia: bool = True
 
     def __post_init__(self):
-        for name in ("E", "G", "area", "I", "kappa", "rho"):
-            value = getattr(self, name)
-            if not np.isfinite(value) or value <= 0:
-                raise ValueError(
-                    f"BeamSection.{name} = {value!r} is not allowed: use a positive finite "
-                    f"value in SI units")
-        if not np.isfinite(self.eta) or self.eta < 0:
-            raise ValueError(
-                f"BeamSection.eta = {self.eta!r}: use a loss factor >= 0 (negative creates "
-                f"energy)")
+        for name, unit in (("E", "Pa"), ("G", "Pa"), ("area", "m^2"), ("I", "m^4"),
+                           ("kappa", "-"), ("rho", "kg/m^3")):
+            validators.positive(f"BeamSection.{name}", getattr(self, name), unit)
+        validators.non_negative("BeamSection.eta", self.eta, "-",
+                                "a negative loss factor creates energy")
 
     @classmethod
     def from_material(cls, material, *, area: float, I: float, kappa: float,
