@@ -92,6 +92,23 @@ def test_reference_from_a_fit_json_holds_the_base_near_it():
         R.BaseReference(spec=spec, values=dict(ref.values, kp=1e9), bounds=ref.bounds)
 
 
+def test_a_reference_parameter_its_data_did_not_fix_stays_in_the_search_box():
+    # SBB decay rates alone leave kb and eta_b unfixed (intervals 1e-300..1e300): held
+    # there, the base once went to kb = 21 N/m and eta_b = 4e6 ("+80422786 %")
+    from railfem.identify.fit import FIT_BOUNDS
+    spec = g.truth_spec()
+    fit_json = {"spec": spec_to_dict(spec), "parameters": [
+        {"name": "kb", "value": 6.6e6, "ci95": [1e-300, 1e300]},
+        {"name": "eta_b", "value": 5.0, "ci95": [6e-6, 4e6]},
+        {"name": "eta_r", "value": 0.005, "ci95": [4e-4, 0.06]}]}
+    ref = R.calibrate(fit_json)
+    for n in ("kb", "eta_b", "eta_r"):
+        lo, hi = ref.bounds[n]
+        assert FIT_BOUNDS[n][0] <= lo <= ref.values[n] <= hi <= FIT_BOUNDS[n][1] and lo < hi
+    assert ref.bounds["eta_b"] == pytest.approx((0.02, 5.0))
+    assert ref.bounds["kb"] == pytest.approx((5e6, 2e9))
+
+
 # ------------------------------------------------------------------ diagnoses
 
 

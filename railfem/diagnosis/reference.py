@@ -30,6 +30,7 @@ from railfem.diagnosis.data import prepare
 from railfem.diagnosis.effects import rail_damper
 from railfem.diagnosis.problem import BASE, DISCREPANCY
 from railfem.identify.base import BASE_PARAMETERS
+from railfem.identify.fit import FIT_BOUNDS
 from railfem.spec import TrackSpec, spec_from_dict
 
 log = logging.getLogger(__name__)
@@ -77,9 +78,13 @@ def _fmt(name: str, value: float) -> str:
     return f"{value / 1e6:.4g} MN/m" if name in ("kp", "kb") else f"{value:.3g}"
 
 
-def held_bounds(values: dict, intervals: dict, tolerance: float) -> dict:
+def held_bounds(values: dict, intervals: dict, tolerance: float, box=None) -> dict:
     """{name: (low, high)}: each value's interval ``intervals[name]`` (SI, may be missing
-    or infinite), at least value /(1 + tolerance) .. value (1 + tolerance)."""
+    or infinite), at least value /(1 + tolerance) .. value (1 + tolerance), and never
+    outside the plausible search box ``box`` (default FIT_BOUNDS): a parameter the
+    reference's data did not fix (an interval of 1e-300..1e300) is held in the box the
+    base is searched in anyway, not let loose to unphysical values."""
+    box = FIT_BOUNDS if box is None else box
     out = {}
     for n, x in values.items():
         f = 1.0 + tolerance
@@ -87,7 +92,10 @@ def held_bounds(values: dict, intervals: dict, tolerance: float) -> dict:
         if lo is not None and hi is not None and np.isfinite(lo) and np.isfinite(hi) \
                 and lo > 0:
             f = max(f, x / lo, hi / x)
-        out[n] = (x / f, x * f)
+        lo, hi = x / f, x * f
+        if n in box:
+            lo, hi = max(lo, min(box[n][0], x)), min(hi, max(box[n][1], x))
+        out[n] = (lo, hi)
     return out
 
 
