@@ -9,7 +9,8 @@ import pytest
 
 from railfem.models import discrete_kernel, frf, head
 from railfem.spec import Numerics, TrackSpec, preset, spec_from_dict, spec_to_dict
-from railfem.track.sleeper import B90, Sleeper, rectangular_section
+from railfem.track.sleeper import (B90, Sleeper, clear_cache, rectangular_section,
+                                   reference_seat_receptance)
 from railfem.track.supports import SupportParameters, dynamic_stiffness
 
 F = np.geomspace(20.0, 3000.0, 25)
@@ -116,6 +117,64 @@ def test_seat_receptance_against_exact_beam_on_bed():
     assert rel(A[:, 0, 0], ref[:, 0]) < 1e-5
     assert rel(A[:, 0, 1], ref[:, 1]) < 1e-5
     assert np.allclose(A[:, 0, 1], A[:, 1, 0])
+
+
+# ------------------------------------------- the modal form against the full solve
+
+F_MODAL = np.geomspace(20.0, 5000.0, 300)
+TABLE1_BEDS = [42e6 * (1 + 1.0j), 48e6 * (1 + 2.0j), 90e6 * (1 + 1.5j), 120e6 * (1 + 1.0j),
+               360e6 * (1 + 0.5j), 1e9 + 0j]  # kb* per rail: Table 1 and a stiff, undamped one
+
+
+def _with_f1(sl, f1):  # stiffness scaled: the free frequencies scale with its square root
+    k = (f1 / sl.free_frequencies(1)[0]) ** 2
+    return Sleeper(EI=sl.EI * k, kGA=sl.kGA * k)
+
+
+@pytest.mark.parametrize("sleeper", [B90, _with_f1(B90, 40.0), _with_f1(B90, 800.0),
+                                     Sleeper(eta=0.5), Sleeper(n_elements=80)],
+                         ids=["B90", "f1=40Hz", "f1=800Hz", "eta=0.5", "80 elements"])
+def test_modal_seat_receptance_against_the_full_solve(sleeper):
+    w = 2 * np.pi * F_MODAL
+    for bed in TABLE1_BEDS:
+        for case in ("symmetric", "antisymmetric"):
+            ref = reference_seat_receptance(sleeper, w, bed, case)
+            err = np.abs(sleeper.seat_receptance(w, bed, case) / ref - 1)
+            assert err.max() < 1e-3, (bed, case, err.max())
+
+
+def test_modal_form_with_a_frequency_dependent_bed_and_light_damping():
+    w = 2 * np.pi * F_MODAL
+    p = SupportParameters(kp=600e6, ms=MS, kb=90e6, eta_b=0.5, mb=400.0, kf=80e6, eta_f=0.5)
+    from railfem.track.sleeper import ballast_stiffness
+    bed = ballast_stiffness(p, w)  # a participating ballast mass on the subgrade
+    for sl in (B90, Sleeper(eta=0.002)):
+        for case in ("symmetric", "antisymmetric"):
+            ref = reference_seat_receptance(sl, w, bed, case)
+            assert np.abs(sl.seat_receptance(w, bed, case) / ref - 1).max() < 1e-3
+
+
+def test_modal_form_is_exact_without_rotary_inertia():
+    # rho I = 0: the bed matrix is the mass matrix / rho A, diagonal in the modes
+    sl = Sleeper(rotary_inertia=0.0)
+    w = 2 * np.pi * np.geomspace(20.0, 8000.0, 200)
+    for case in ("symmetric", "antisymmetric"):
+        ref = reference_seat_receptance(sl, w, 1e9 + 0j, case)
+        assert rel(sl.seat_receptance(w, 1e9 + 0j, case), ref) < 1e-10
+
+
+def test_modes_cached_by_value_do_not_change_results():
+    w = 2 * np.pi * F
+    clear_cache()
+    first = B90.seat_receptance(w, KB, "antisymmetric")
+    for other in (_with_f1(B90, 300.0), B90.scaled(0.5), Sleeper(eta=0.1)):
+        other.seat_receptance(w, KB * 0.7, "antisymmetric")  # same geometry, other values
+    clear_cache()
+    _with_f1(B90, 300.0).seat_receptance(w, KB, "antisymmetric")
+    assert np.array_equal(B90.seat_receptance(w, KB, "antisymmetric"), first)
+    # the sleeper scaled by a weight has the receptance / weight on the bed times weight
+    assert rel(B90.scaled(0.5).seat_receptance(w, KB * 0.5, "antisymmetric"),
+               first / 0.5) < 1e-12
 
 
 # ------------------------------------------------------------------ (b) the rigid limit
