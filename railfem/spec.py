@@ -20,9 +20,9 @@ from dataclasses import asdict, dataclass, field, fields, replace
 
 from . import validators as v
 from .materials import Material
-from .track.supports import (
-    GRIP_FIELDS, HORIZONTAL_FIELDS, PRESETS, SupportLayout, SupportParameters)
-from .track.supports import DIRECTIONS as SUPPORT_DIRECTIONS, RAIL_LOSS_FACTORS, preset_key
+from .track.directions import DIRECTIONS as SUPPORT_DIRECTIONS, GRIP_FIELDS, HORIZONTAL_FIELDS
+from .track.supports import PRESETS, SupportLayout, SupportParameters
+from .track.supports import RAIL_LOSS_FACTORS, preset_key
 from .track.supports import DEFAULT_SPACING, uniform_layout
 from .track.sleeper import CASES as LOAD_CASES, Sleeper, load_case
 
@@ -359,7 +359,7 @@ class TrackSpec:
 
     def replace(self, **changes) -> "TrackSpec":
         """A copy with fields changed; also takes the support parameters kp, eta_p, ms, kb,
-        eta_b and the horizontal ones (kp_lat, ..., supports.HORIZONTAL_FIELDS) in SI, and
+        eta_b and the horizontal ones (kp_lat, ..., directions.HORIZONTAL_FIELDS) in SI, and
         eta_r (the rail loss factor)."""
         sup = {k: changes.pop(k) for k in ("kp", "eta_p", "ms", "kb", "eta_b")
                + HORIZONTAL_FIELDS + GRIP_FIELDS + BALLAST_FIELDS if k in changes}

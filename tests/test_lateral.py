@@ -14,6 +14,7 @@ import railfem as rf
 from railfem import models
 from railfem.track import beams
 from railfem.track import coupling
+from railfem.track import directions
 from railfem.track import footprints
 from railfem.rail import meshing
 from railfem.rail import mobility
@@ -42,13 +43,13 @@ SITE = supports.PRESETS["site"]
 def test_horizontal_fields_are_additive():
     p = supports.SupportParameters(kp=3e8, kb=5e7)
     assert p.kp_lat == 0 and p.kp_long == 0 and np.isinf(p.kb_lat)
-    assert not supports.acts_in(p, "y") and supports.acts_in(SITE, "y")
+    assert not directions.acts_in(p, "y") and directions.acts_in(SITE, "y")
     w = 2 * np.pi * np.array([10.0, 300.0])
     # lateral chain: pad in series with the sleeper on its horizontal ballast support
     kp, kb = SITE.kp_lat * (1 + 1j * SITE.eta_p_lat), SITE.kb_lat * (1 + 1j * SITE.eta_b_lat)
     z = kb - w**2 * SITE.ms_lat
-    assert np.allclose(supports.directional_stiffness(SITE, w, "y"), kp * z / (kp + z))
-    assert np.allclose(supports.directional_stiffness(p, w, "y"), 0)
+    assert np.allclose(directions.directional_stiffness(SITE, w, "y"), kp * z / (kp + z))
+    assert np.allclose(directions.directional_stiffness(p, w, "y"), 0)
     with pytest.raises(ValueError, match="kp_lat"):
         supports.SupportParameters(kp=1e8, kb=1e8, kp_lat=-1.0)
     voided = rf.spec.SupportDeviation(index=0, kb=0.0).apply(SITE)

@@ -16,7 +16,7 @@ from railfem import models
 from railfem import spec as specs
 from railfem.materials import Material
 from railfem.rail import meshing, mobility, waveguide
-from railfem.track import beams, footprints, supports
+from railfem.track import beams, directions, footprints, supports
 from railfem.track import wfe as track
 
 SITE = supports.PRESETS["site"]
@@ -59,16 +59,16 @@ def test_roll_column_reads_rotation_and_spreads_a_couple(rail, n, rule):
     theta = T / (r @ K @ r)
     assert theta == pytest.approx(T / k, rel=1e-12)
     w = 2 * np.pi * np.array([0.0, 100.0, 1000.0])
-    assert np.allclose(supports.directional_stiffness(GRIP, w, "r"), 4e5 * (1 + 0.2j))
+    assert np.allclose(directions.directional_stiffness(GRIP, w, "r"), 4e5 * (1 + 0.2j))
 
 
 def test_clip_is_in_parallel_with_the_lateral_pad():
     w = 2 * np.pi * np.array([10.0, 150.0, 700.0])
     kp = SITE.kp_lat * (1 + 1j * SITE.eta_p_lat) + 2e7 * (1 + 0.1j)
     z = SITE.kb_lat * (1 + 1j * SITE.eta_b_lat) - w ** 2 * SITE.ms_lat
-    assert np.allclose(supports.directional_stiffness(GRIP, w, "y"), kp * z / (kp + z))
-    assert np.allclose(supports.directional_stiffness(SITE, w, "r"), 0.0)
-    assert supports.acts_in(GRIP, "r") and not supports.acts_in(SITE, "r")
+    assert np.allclose(directions.directional_stiffness(GRIP, w, "y"), kp * z / (kp + z))
+    assert np.allclose(directions.directional_stiffness(SITE, w, "r"), 0.0)
+    assert directions.acts_in(GRIP, "r") and not directions.acts_in(SITE, "r")
     with pytest.raises(ValueError, match="k_roll"):
         dataclasses.replace(SITE, k_roll=-1.0)
     s = specs.preset("site", k_roll=3e5, k_clip=1e7)
@@ -132,7 +132,7 @@ def test_continuous_grip_against_bending_torsion_beam(bar):
     P = ls.point(*side, "y")
     w = 2 * np.pi * f
     kt = (supports.dynamic_stiffness(GRIP, w) * float(bed @ y ** 2) + 4e5 * (1 + 0.2j)) / 0.6
-    ky = supports.directional_stiffness(GRIP, w, "y") / 0.6
+    ky = directions.directional_stiffness(GRIP, w, "y") / 0.6
     bm = beams.lateral_receptance(ls, w, x, [P], [P], k_y=ky, k_theta=kt,
                                   z_spring=float(g.nodes[:, 1].min()), load_length=0.02)
     db = 20 * np.log10(np.abs(wfe.receptance[:, 0, :, 0] / bm[:, 0, :, 0]))

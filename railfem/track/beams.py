@@ -612,7 +612,8 @@ def lateral_track_receptance(section: LateralSection, support_params: SupportPar
     bed_moment (m^2) is the second moment of the vertical bed's distribution across the foot
     about the web axis (W^2/12 for a uniform bed of width W), plus the fastening's roll
     restraint k_roll / spacing (SupportParameters). Shapes as lateral_receptance."""
-    from .supports import directional_stiffness, dynamic_stiffness
+    from .directions import directional_stiffness
+    from .supports import dynamic_stiffness
 
     w = np.atleast_1d(_as_omega(omega, allow_zero=True))
     ky = directional_stiffness(support_params, w, "y") / spacing

@@ -20,6 +20,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .directions import (GRIP_SCALED, HORIZONTAL_LOSS, HORIZONTAL_SCALED, HORIZONTAL_STIFFNESS,
+                         directional_stiffness)
 from .sleeper import CASES as LOAD_CASES, Sleeper, seat_stiffness
 
 log = logging.getLogger(__name__)
@@ -146,7 +148,7 @@ class SupportParameters:
 
     Horizontal chains (used where the track's ``support_directions`` include y or x;
     railfem.spec.TrackSpec): the same pad - sleeper - ballast series in each direction,
-    ``directional_stiffness``.
+    railfem.track.directions.
     kp_lat, eta_p_lat: lateral (y) pad stiffness per fastener (N/m) and loss factor (-);
         0 = no lateral restraint by the pad (the default: a vertical-only support).
     kp_long, eta_p_long: longitudinal (x) pad stiffness per fastener (N/m), loss factor.
@@ -268,61 +270,6 @@ class SupportParameters:
                        absorber=absorber, mb=scale(self.mb), kf=scale(self.kf),
                        sleeper=sleeper,
                        **{n: scale(getattr(self, n)) for n in HORIZONTAL_SCALED + GRIP_SCALED})
-
-
-#: The horizontal fields of SupportParameters (additive to the vertical ones).
-HORIZONTAL_STIFFNESS = ("kp_lat", "kp_long", "kb_lat")
-HORIZONTAL_LOSS = ("eta_p_lat", "eta_p_long", "eta_b_lat")
-HORIZONTAL_SCALED = ("kp_lat", "kp_long", "kb_lat", "ms_lat")
-HORIZONTAL_FIELDS = ("kp_lat", "eta_p_lat", "kp_long", "eta_p_long", "kb_lat", "eta_b_lat",
-                     "ms_lat")
-#: The fastening's grip on the rail foot (roll and clip, additive to the others).
-GRIP_FIELDS = ("k_roll", "eta_roll", "k_clip", "eta_clip")
-GRIP_SCALED = ("k_roll", "k_clip")
-#: Directions a support acts in: u_z (vertical), u_y (lateral), u_x (longitudinal).
-DIRECTIONS = ("z", "y", "x")
-#: The roll of the foot (a rotation about the rail axis, rad): the grip's generalised spring.
-ROLL = "r"
-
-
-def chain(params: SupportParameters, direction: str = "z") -> SupportParameters:
-    """The pad - sleeper - ballast chain acting in ``direction`` as vertical-form
-    SupportParameters (kp, eta_p, ms, kb, eta_b): 'z' is params itself; 'y' the lateral pad
-    on the sleeper's horizontal ballast support (with the clips k_clip in parallel with the
-    pad); 'x' the longitudinal pad on the same; 'r' the roll restraint k_roll (N m/rad) on
-    a sleeper rigid in rotation."""
-    if direction == "z":
-        return params
-    if direction == ROLL:
-        return SupportParameters(kp=params.k_roll, eta_p=params.eta_roll, ms=0.0,
-                                 kb=math.inf)
-    if direction not in DIRECTIONS:
-        raise ValueError(f"support direction {direction!r}: use one of {', '.join(DIRECTIONS)}"
-                         f" or {ROLL!r} (roll)")
-    kp, eta = ((params.kp_lat, params.eta_p_lat) if direction == "y"
-               else (params.kp_long, params.eta_p_long))
-    if direction == "y" and params.k_clip > 0:  # pad and clips in parallel
-        kp = params.kp_lat + params.k_clip
-        eta = 0.0 if math.isinf(kp) else (params.kp_lat * params.eta_p_lat
-                                          + params.k_clip * params.eta_clip) / kp
-    return SupportParameters(kp=kp, eta_p=eta, ms=params.ms_lat, kb=params.kb_lat,
-                             eta_b=params.eta_b_lat)
-
-
-def directional_stiffness(params: SupportParameters, omega, direction: str = "z"):
-    """Dynamic stiffness (N/m, complex, shape of omega) of one support in ``direction``
-    ('z', 'y' or 'x'; N m/rad for the roll 'r'): ``dynamic_stiffness`` of
-    ``chain(params, direction)``."""
-    return dynamic_stiffness(chain(params, direction), omega)
-
-
-def acts_in(params: SupportParameters, direction: str) -> bool:
-    """Whether the support has a pad in ``direction`` (the vertical one always counts; 'y'
-    with the clips, 'r' the roll restraint)."""
-    if direction == ROLL:
-        return params.k_roll > 0
-    return direction == "z" or (params.kp_lat + params.k_clip if direction == "y"
-                                else params.kp_long) > 0
 
 
 def _complex_stiffness(k: float, eta: float) -> complex:
@@ -610,6 +557,5 @@ __all__ = [
     "FractionalZener", "FootDashpot", "RailAbsorber", "SupportParameters", "dynamic_stiffness",
     "support_receptance", "continuous_stiffness", "TABLE1", "PRESETS", "RAIL_LOSS_FACTORS",
     "preset_key", "SpringSet", "SupportLayout", "uniform_layout", "with_support",
-    "foot_spring_weights", "DEFAULT_SPACING", "DEFAULT_SLEEPER_MASS", "DIRECTIONS",
-    "HORIZONTAL_FIELDS", "GRIP_FIELDS", "ROLL", "chain", "directional_stiffness", "acts_in",
+    "foot_spring_weights", "DEFAULT_SPACING", "DEFAULT_SLEEPER_MASS",
 ]

@@ -44,7 +44,8 @@ from .coupling import (
 )
 from ..rail.greens import combine, residue_sum, wave_kernels
 from ..rail.mobility import FamilyResponse, Location, boundary_edges, check_frequency, wave_sum
-from .supports import SupportLayout, directional_stiffness, dynamic_stiffness
+from .directions import directional_stiffness
+from .supports import SupportLayout, dynamic_stiffness
 from ..rail.waveguide import Waveguide
 from ..rail.waves import FamilyOperators, frozen_tail, join, waves_at
 

@@ -1,0 +1,81 @@
+"""The support in every direction: the pad - sleeper - ballast chain per direction and the
+fastening's grip on the rail foot.
+
+A support (railfem.track.supports.SupportParameters) acts on the rail foot vertically
+(u_z: the published pad - sleeper - ballast chain, METHOD.md section 2) and, where the
+track's ``support_directions`` ask for it (railfem.spec.TrackSpec), laterally (u_y),
+longitudinally (u_x) and in roll (the foot's rotation about the rail axis, 'r'). Each
+direction is the same series chain in vertical form (``chain``): the pad (with the clips
+laterally, the roll restraint in roll) between rail and sleeper, the sleeper's mass, its
+support in the ballast. ``directional_stiffness`` is its dynamic stiffness,
+``acts_in`` whether the support restrains a direction at all.
+
+Conventions (railfem.conventions): exp(+i omega t); SI units (N/m, N m/rad, kg, rad/s).
+"""
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .supports import SupportParameters
+
+#: The horizontal fields of SupportParameters (additive to the vertical ones).
+HORIZONTAL_STIFFNESS = ("kp_lat", "kp_long", "kb_lat")
+HORIZONTAL_LOSS = ("eta_p_lat", "eta_p_long", "eta_b_lat")
+HORIZONTAL_SCALED = ("kp_lat", "kp_long", "kb_lat", "ms_lat")
+HORIZONTAL_FIELDS = ("kp_lat", "eta_p_lat", "kp_long", "eta_p_long", "kb_lat", "eta_b_lat",
+                     "ms_lat")
+#: The fastening's grip on the rail foot (roll and clip, additive to the others).
+GRIP_FIELDS = ("k_roll", "eta_roll", "k_clip", "eta_clip")
+GRIP_SCALED = ("k_roll", "k_clip")
+#: Directions a support acts in: u_z (vertical), u_y (lateral), u_x (longitudinal).
+DIRECTIONS = ("z", "y", "x")
+#: The roll of the foot (a rotation about the rail axis, rad): the grip's generalised spring.
+ROLL = "r"
+
+
+def chain(params: SupportParameters, direction: str = "z") -> SupportParameters:
+    """The pad - sleeper - ballast chain acting in ``direction`` as vertical-form
+    SupportParameters (kp, eta_p, ms, kb, eta_b): 'z' is params itself; 'y' the lateral pad
+    on the sleeper's horizontal ballast support (with the clips k_clip in parallel with the
+    pad); 'x' the longitudinal pad on the same; 'r' the roll restraint k_roll (N m/rad) on
+    a sleeper rigid in rotation."""
+    if direction == "z":
+        return params
+    if direction == ROLL:
+        return type(params)(kp=params.k_roll, eta_p=params.eta_roll, ms=0.0, kb=math.inf)
+    if direction not in DIRECTIONS:
+        raise ValueError(f"support direction {direction!r}: use one of {', '.join(DIRECTIONS)}"
+                         f" or {ROLL!r} (roll)")
+    kp, eta = ((params.kp_lat, params.eta_p_lat) if direction == "y"
+               else (params.kp_long, params.eta_p_long))
+    if direction == "y" and params.k_clip > 0:  # pad and clips in parallel
+        kp = params.kp_lat + params.k_clip
+        eta = 0.0 if math.isinf(kp) else (params.kp_lat * params.eta_p_lat
+                                          + params.k_clip * params.eta_clip) / kp
+    return type(params)(kp=kp, eta_p=eta, ms=params.ms_lat, kb=params.kb_lat,
+                        eta_b=params.eta_b_lat)
+
+
+def directional_stiffness(params: SupportParameters, omega, direction: str = "z"):
+    """Dynamic stiffness (N/m, complex, shape of omega) of one support in ``direction``
+    ('z', 'y' or 'x'; N m/rad for the roll 'r'): ``dynamic_stiffness`` of
+    ``chain(params, direction)``."""
+    from .supports import dynamic_stiffness  # here: supports builds its layouts on this module
+
+    return dynamic_stiffness(chain(params, direction), omega)
+
+
+def acts_in(params: SupportParameters, direction: str) -> bool:
+    """Whether the support has a pad in ``direction`` (the vertical one always counts; 'y'
+    with the clips, 'r' the roll restraint)."""
+    if direction == ROLL:
+        return params.k_roll > 0
+    return direction == "z" or (params.kp_lat + params.k_clip if direction == "y"
+                                else params.kp_long) > 0
+
+
+__all__ = ["HORIZONTAL_STIFFNESS", "HORIZONTAL_LOSS", "HORIZONTAL_SCALED", "HORIZONTAL_FIELDS",
+           "GRIP_FIELDS", "GRIP_SCALED", "DIRECTIONS", "ROLL", "chain",
+           "directional_stiffness", "acts_in"]
