@@ -7,7 +7,10 @@ parts, with the covariates (temperature, static load) campaign effects need.
   is more than 60 dB below the point mobility's are not compared. The decay rate uses all
   positions (EN 15461), so the held-out transfers enter the fit only through it;
 * a decay rate per band (DecayRateMeasurement, a row of a table): every third band
-  (the 2nd, 5th, 8th, ...) is held out;
+  (the 2nd, 5th, 8th, ...) is held out; vertical rows (direction 'z') and lateral rows
+  (direction 'y', a table's 'h'; railfem.identify.data.decay_rate_target models them with
+  the lateral hammer and sensor on the side of the head, 'head_lateral'), alone or
+  together (``directions``, select_directions);
 * pass-by decay rates (railfem.estimators.passby.PassbyDecayRate, the estimators' result
   on recordings): one decay-rate record per pass-by (``passby_decay_rates``), repeats of
   each other, every third band held out as for a table row;
@@ -24,6 +27,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from railfem import models
 from railfem.estimators.passby import PassbyDecayRate
 from railfem.identify import data as fdata
 from railfem.measurement import (DecayRateMeasurement, DecayRateTable, HammerMeasurement,
@@ -80,12 +84,54 @@ class DiagnosisData:
     def kinds(self) -> set:
         return {r.kind for r in self.records}
 
+    @property
+    def lateral(self) -> bool:
+        """Whether any record is lateral (a lateral decay rate: channel 'head_lateral')."""
+        return any(is_lateral(r) for r in self.records)
+
+    @property
+    def lateral_only(self) -> bool:
+        """Whether every record is lateral."""
+        return all(is_lateral(r) for r in self.records)
+
     def has_covariate(self, name: str, spread: float) -> bool:
         """Every record has the covariate and it varies by at least ``spread``."""
         vals = [r.covariates.get(name, (None,))[0] for r in self.records]
         if any(v is None for v in vals) or len(vals) < 2:
             return False
         return max(vals) - min(vals) >= spread
+
+
+def is_lateral(record: Record) -> bool:
+    """Whether ``record`` is lateral (its channel is lateral, railfem.models.LATERAL: a
+    lateral hammer and sensor on the side of the head)."""
+    return any(o in models.LATERAL for o in record.fit.outputs)
+
+
+#: why an effect of the rail's roll and lateral motion is not tried on vertical data
+LATERAL_ONLY = ("acts on the rail's roll and lateral motion, which vertical data cannot "
+                "see (a vertical load on the mirror plane excites the symmetric waves "
+                "only): give lateral decay rates (direction 'y')")
+DIRECTIONS = ("z", "y")
+
+
+def select_directions(rows: list, directions: str | None = None) -> list:
+    """The decay-rate rows of ``directions`` ('z' vertical, 'y' lateral, 'zy' both); None:
+    the vertical rows when there are any (a table's lateral rows are then left out, as
+    before lateral rows were diagnosed), else the lateral ones."""
+    if directions is None:
+        vertical = [r for r in rows if r.direction == "z"]
+        directions = "z" if vertical or not rows else "y"
+    if not directions or not set(directions) <= set(DIRECTIONS):
+        raise ValueError(f"directions = {directions!r}: give 'z' (vertical rows), 'y' "
+                         "(lateral rows) or 'zy' (both)")
+    out = [r for r in rows if r.direction in directions]
+    if not out:
+        have = sorted({r.direction for r in rows})
+        raise ValueError(f"the decay rates hold no rows of direction(s) {directions!r} "
+                         f"(they have {have}): 'z' vertical ('v' in a table), 'y' lateral "
+                         "('h')")
+    return out
 
 
 def _covariate_values(metadata: Metadata) -> dict:
@@ -247,14 +293,30 @@ def record_name(meta: Metadata, i: int) -> str:
     return " ".join(parts) if parts else f"row {i}"
 
 
-def prepare(data, *, spacing: float | None = None, **options) -> DiagnosisData:
-    """DiagnosisData from a HammerMeasurement, a DecayRateMeasurement, a DecayRateTable
-    (vertical rows), a PassbyDecayRate (one record per pass-by), a list of those, or
-    DiagnosisData (returned as is). spacing: sleeper
-    spacing (m) for decay rates (hammer tests carry their own)."""
+DECAY_RATES = (DecayRateMeasurement, DecayRateTable, PassbyDecayRate)
+
+
+def _rows(item) -> list:
+    """The DecayRateMeasurement rows of a decay-rate item (DECAY_RATES)."""
+    if isinstance(item, DecayRateTable):
+        return item.rows()
+    return passby_decay_rates(item) if isinstance(item, PassbyDecayRate) else [item]
+
+
+def prepare(data, *, spacing: float | None = None, directions: str | None = None,
+            **options) -> DiagnosisData:
+    """DiagnosisData from a HammerMeasurement, a DecayRateMeasurement, a DecayRateTable, a
+    PassbyDecayRate (one record per pass-by), a list of those, or DiagnosisData (returned
+    as is). spacing: sleeper spacing (m) for decay rates (hammer tests carry their own).
+    directions: the decay-rate rows diagnosed ('z', 'y' or 'zy'; default: the vertical
+    rows, or the lateral ones when there are no vertical rows; select_directions). A
+    lateral row's record is named with a trailing ' lateral'."""
     if isinstance(data, DiagnosisData):
         return data
     items = list(data) if isinstance(data, (list, tuple)) else [data]
+    if directions is None:  # over every item: vertical rows if there are any
+        every = [r for item in items if isinstance(item, DECAY_RATES) for r in _rows(item)]
+        directions = "z" if any(r.direction == "z" for r in every) or not every else "y"
     records, spacings, desc = [], [], []
     for i, item in enumerate(items):
         if isinstance(item, HammerMeasurement):
@@ -263,20 +325,18 @@ def prepare(data, *, spacing: float | None = None, **options) -> DiagnosisData:
             spacings.append(item.sleeper_spacing)
             desc.append(f"hammer test, {len(item.positions)} positions, sensors "
                         f"{', '.join(item.sensor_names)}")
-        elif isinstance(item, (DecayRateMeasurement, DecayRateTable, PassbyDecayRate)):
-            rows = (item.rows() if isinstance(item, DecayRateTable) else
-                    passby_decay_rates(item) if isinstance(item, PassbyDecayRate) else [item])
-            rows = [r for r in rows if r.direction == "z"]
-            if not rows:
-                raise ValueError("the decay rates hold no vertical rows (direction 'z'/'v'); "
-                                 "the track models are vertical")
+        elif isinstance(item, DECAY_RATES):
+            rows = select_directions(_rows(item), directions)
             if spacing is None:
                 raise ValueError("diagnosing a decay rate needs the sleeper spacing (m), "
                                  "e.g. spacing=0.6")
             for j, r in enumerate(rows):
-                records.append(tdr_record(r, spacing, record_name(r.metadata, j), **options))
+                name = record_name(r.metadata, j) + (" lateral" if r.direction == "y" else "")
+                records.append(tdr_record(r, spacing, name, **options))
             spacings.append(spacing)
-            desc.append(f"{len(rows)} decay rate(s) per band")
+            n_lat = sum(r.direction == "y" for r in rows)
+            desc.append(f"{len(rows)} decay rate(s) per band"
+                        + (f" ({n_lat} lateral)" if n_lat else ""))
         else:
             raise TypeError(f"cannot diagnose {type(item).__name__}: give a "
                             "HammerMeasurement, DecayRateMeasurement, DecayRateTable or "
@@ -286,5 +346,6 @@ def prepare(data, *, spacing: float | None = None, **options) -> DiagnosisData:
     if any(abs(s - spacing) > 1e-9 for s in spacings):
         raise ValueError(f"the records have different sleeper spacings {sorted(set(spacings))} "
                          "m: diagnose them separately")
+    records.sort(key=is_lateral)  # vertical first: a base's start fit takes the first
     return DiagnosisData(records=tuple(_with_means(records)), spacing=float(spacing),
                          description="; ".join(desc))

@@ -15,6 +15,14 @@
   positions well inside the supported stretch: n_supports is raised so that 20 m of
   supports lie beyond every position.
 
+A lateral record (a lateral decay rate, channel 'head_lateral': railfem.diagnosis.data)
+goes through the door with the lateral hammer (``lateral_receptance``), on supports acting
+vertically and laterally whose lateral chain follows the base's vertical one by the
+presets' rule (``lateral_spec``). The periodic WFE track (wfe-periodic) is the model for
+it: one kernel (about 7 s on the shipped 10 mm mesh, 54 frequencies) and then about 0.05 s
+per evaluation, where the discrete WFE track's lateral kernel takes about a minute and the
+continuous WFE track about 11 s per evaluation (benchmarks/results/results_sbb_lateral.md).
+
 It is the fit's forward model (railfem.identify.forward) with the diagnosis's options: the
 record's own geometry uses the fit's SpectralEngine (same kernels, same content keys),
 shifted geometries one checked eigen form (checked_coupling) over all of them, the door
@@ -31,11 +39,12 @@ from dataclasses import replace
 import numpy as np
 
 from railfem import models
+from railfem.diagnosis.data import is_lateral
 from railfem.identify.forward import Geometry, SpectralEngine, checked_coupling, door_receptance
 from railfem.identify.spectral import SpectralCoupling
 from railfem.track.coupling import SupportUpdate
 from railfem.track.sleeper import CASES as LOAD_CASES
-from railfem.track.supports import SupportParameters, dynamic_stiffness
+from railfem.track.supports import SupportParameters, dynamic_stiffness, horizontal_support
 
 log = logging.getLogger(__name__)
 
@@ -60,6 +69,42 @@ def shifted(record, shift) -> tuple[float, np.ndarray]:
     return sx, sx + pos
 
 
+def lateral_spec(spec):
+    """The track a lateral record is evaluated on: ``spec`` with supports acting vertically
+    and laterally (support_directions with 'y') and its lateral chain following the
+    vertical one by the presets' rule (railfem.track.supports.horizontal_support: lateral
+    pad kp / 7 with the pad's loss factor, the sleeper's lateral ballast support kb / 2
+    with the ballast's, the sleeper mass moving with the rail), so the base's pad and
+    ballast parameters calibrate the lateral chain on lateral data. The fastening's grip
+    (k_roll, k_clip) and the vertical options are kept."""
+    sup = spec.support
+    dirs = spec.support_directions if "y" in spec.support_directions else \
+        spec.support_directions + "y"
+    return spec.replace(support_directions="".join(d for d in "zyx" if d in dirs),
+                        **horizontal_support(sup.kp, sup.eta_p, sup.kb, sup.eta_b, sup.ms))
+
+
+def lateral_receptance(spec, record, shift=(0.0, 0.0), cache=False) -> np.ndarray:
+    """(nf, 1, n_pos) lateral receptance (m/N) of ``record``'s EN 15461 test on the track
+    ``lateral_spec(spec)``: lateral hammer and sensor on the side of the head, through the
+    door (its kernels are cached by content: a support change costs the coupling). A track
+    with deviating supports gets supports well beyond every position (MARGIN)."""
+    spec = lateral_spec(spec)
+    t = record.fit
+    sx, fx = shifted(record, shift)
+    if spec.deviations:
+        spec = with_margin(spec, sx, fx)
+    return door_receptance(spec, t.frequency, sx, fx, t.outputs, force="head_lateral",
+                           cache=cache)
+
+
+def with_margin(spec, sx, fx):
+    """``spec`` with at least MARGIN m of supports beyond the sensor ``sx`` and the forces
+    ``fx`` (m)."""
+    need = int(2 * math.ceil((max(np.abs(fx).max(), abs(sx)) + MARGIN) / spec.spacing) + 1)
+    return spec.replace(n_supports=need) if spec.n_supports < need else spec
+
+
 class Evaluator:
     """receptance(spec, record, shift) -> (nf, n_out, n_pos) m/N at the record's geometry.
 
@@ -79,6 +124,8 @@ class Evaluator:
         if spec.rails == 2:  # two rails: the mean of the in- and anti-phase tracks
             a_s, a_a = (self.receptance(spec.load_case(c), record, shift) for c in LOAD_CASES)
             return (a_s + a_a) / 2
+        if is_lateral(record):
+            return lateral_receptance(spec, record, shift, self.cache)
         if spec.kind.is_discrete and spec.uniform:
             if shift == (0.0, 0.0):
                 sc = self._plain(spec, record)
@@ -107,7 +154,7 @@ class Evaluator:
         discrete track with deviating supports (the Woodbury path, exact derivatives), or
         None where that path does not serve the spec (lateral springs, two rails)."""
         shift = (float(shift[0]), float(shift[1]))
-        if not self._woodbury(spec, shift):
+        if is_lateral(record) or not self._woodbury(spec, shift):
             return None
         return self._deviations(spec, record, shift, gradient=True)
 

@@ -52,8 +52,8 @@ from scipy import stats
 
 from railfem.diagnosis import effects as library
 from railfem.diagnosis import residual as resid
-from railfem.diagnosis.data import DiagnosisData, prepare
-from railfem.diagnosis.evaluate import Evaluator
+from railfem.diagnosis.data import LATERAL_ONLY, DiagnosisData, prepare
+from railfem.diagnosis.evaluate import Evaluator, lateral_spec
 from railfem.diagnosis.problem import BASE, DISCREPANCY, Problem, noise_scale, table
 from railfem.diagnosis.refit import REFINE_STEPS, Outcome, joint_profile, profile_eta_r, refit
 from railfem.diagnosis.verdict import decide
@@ -113,6 +113,8 @@ def applicable(effect, data: DiagnosisData, model: str):
         if need == "wfe" and not model_kind(model).is_wfe:
             return False, (f"changes the rail's cross-section, which the beam model {model} "
                            "does not have: diagnose with a WFE model for this effect")
+        if need == "lateral" and not data.lateral:
+            return False, LATERAL_ONLY
         if need == "hammer" and "hammer" not in data.kinds:
             return False, "needs hammer FRFs (the data are decay rates only)"
         if need.startswith("covariate:"):
@@ -338,7 +340,8 @@ def fit_base(data: DiagnosisData, model: str, spec0: TrackSpec, ev: Evaluator, *
     fr = identify_fit(start_target, model, parameters=BASE + ("eta_r",), base=spec0,
                       bounds={"eta_r": ETA_R_RANGE}, n_starts=n_starts, workers=workers,
                       cache=cache, profiles=(), seed=seed,
-                      slow_nodes=3 if beam else None, slow_refine=2 if beam else None)
+                      slow_nodes=3 if beam else None, slow_refine=2 if beam else None,
+                      discrepancy=None)  # a start: the base refit below carries it
     spec_b = spec0.replace(eta_r=fr.spec.rail.eta)
     x0 = np.array([math.log10(getattr(fr.spec.support, n)) for n in BASE])
     scale = noise_scale(Problem(data=data, evaluator=ev, spec=spec_b, scale={}), x0,
@@ -527,7 +530,8 @@ def base_of(data: DiagnosisData, model: str, base: TrackSpec | None = None) -> T
     finite length is one of the effects the search compares, effects/pad_length.py), with
     ``model`` and the data's sleeper spacing."""
     spec0 = base if base is not None else default_base(model)
-    return spec0.replace(model=model, spacing=data.spacing)
+    spec = spec0.replace(model=model, spacing=data.spacing)
+    return lateral_spec(spec) if data.lateral_only else spec  # lateral rows: lateral supports
 
 
 def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None,

@@ -352,7 +352,7 @@ def repeat_scatter(data, part="fit") -> dict:
         m = r.metadata
         if r.kind != "tdr" or not (m.section or m.date):
             continue
-        groups.setdefault((m.section, m.date), []).append(r)
+        groups.setdefault((m.section, m.date, r.fit.outputs), []).append(r)  # per direction
     sums: dict = {}
     for recs in groups.values():
         if len(recs) < 2:
