@@ -173,7 +173,18 @@ class SupportDeviation:
     def apply(self, p: SupportParameters) -> SupportParameters:
         """p with the factors applied; each also scales its horizontal counterparts (a
         pad's factor its lateral and longitudinal pad, the ballast's factor the sleeper's
-        horizontal ballast support: a voided sleeper is voided in every direction)."""
+        horizontal ballast support: a voided sleeper is voided in every direction).
+
+        The fastening's grip (k_roll, k_clip) acts between rail and sleeper like the pad,
+        but it is not the pad: steel clips pressing the foot onto the sleeper, in parallel
+        with the pad. A pad factor (a softer, harder or worn pad) leaves it unchanged. A
+        ballast factor changes what holds the sleeper, so it acts through the chain behind
+        the grip, not on the grip: laterally the clips sit in series with the sleeper's
+        horizontal ballast support, which the factor scales (a voided sleeper hangs with
+        its clips); in roll the sleeper is rigid while the ballast holds it and turns
+        against its own rotational inertia once voided (railfem.track.directions.chain), so
+        a voided sleeper's grip still acts against the sleeper's inertia but no longer
+        against the ground. The sleeper-mass factor scales that inertia with ms."""
         def f(value, factor):  # 0 * inf is an absent element, not NaN
             return 0.0 if factor == 0 else value * factor
         return replace(p, kp=p.kp * self.kp, eta_p=p.eta_p * self.eta_p, ms=p.ms * self.ms,

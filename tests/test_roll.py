@@ -77,6 +77,32 @@ def test_clip_is_in_parallel_with_the_lateral_pad():
     assert models.spring_directions(specs.preset("site", support_directions="zyx")) == "zyx"
 
 
+def test_voided_sleeper_keeps_its_grip_against_the_sleeper_inertia_only():
+    w = 2 * np.pi * np.array([0.0, 5.0, 20.0, 150.0, 700.0])
+    kr = 4e5 * (1 + 0.2j)
+    J = SITE.ms * (1.3 ** 2 / 12 + (0.65 - 0.75) ** 2)  # half sleeper about the rail seat
+    void = specs.SupportDeviation(index=0, kb=0.0).apply(GRIP)
+    z = -w ** 2 * J  # the hanging sleeper's roll: its inertia, no ground
+    with np.errstate(invalid="ignore"):
+        ref = np.where(w == 0, 0.0, kr * z / (kr + z))
+    assert np.allclose(directions.directional_stiffness(void, w, "r"), ref, rtol=1e-12)
+    # laterally the clips hang with the sleeper too (in series with its free mass)
+    kp = (SITE.kp_lat * (1 + 1j * SITE.eta_p_lat) + 2e7 * (1 + 0.1j))
+    zy = -w ** 2 * SITE.ms_lat
+    with np.errstate(invalid="ignore"):
+        ref_y = np.where(w == 0, 0.0, kp * zy / (kp + zy))
+    assert np.allclose(directions.directional_stiffness(void, w, "y"), ref_y, rtol=1e-12)
+    # a pad factor is not the clips; a partly settled ballast still holds the roll
+    soft_pad = specs.SupportDeviation(index=0, kp=0.5, kb=0.5).apply(GRIP)
+    assert np.allclose(directions.directional_stiffness(soft_pad, w, "r"), kr, rtol=1e-14)
+    assert soft_pad.k_clip == GRIP.k_clip and soft_pad.k_roll == GRIP.k_roll
+    # the sleeper-mass factor scales the hanging sleeper's inertia
+    heavy = specs.SupportDeviation(index=0, kb=0.0, ms=2.0).apply(GRIP)
+    with np.errstate(invalid="ignore"):
+        ref2 = np.where(w == 0, 0.0, kr * 2 * z / (kr + 2 * z))
+    assert np.allclose(directions.directional_stiffness(heavy, w, "r"), ref2, rtol=1e-12)
+
+
 def test_zero_roll_restraint_is_the_model_without_it(rail):
     """k_roll -> 0: the roll column carries no force, the response is the one without it."""
     g, lat = rail

@@ -17,6 +17,8 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from .sleeper import Sleeper
+
 if TYPE_CHECKING:
     from .supports import SupportParameters
 
@@ -40,11 +42,16 @@ def chain(params: SupportParameters, direction: str = "z") -> SupportParameters:
     SupportParameters (kp, eta_p, ms, kb, eta_b): 'z' is params itself; 'y' the lateral pad
     on the sleeper's horizontal ballast support (with the clips k_clip in parallel with the
     pad); 'x' the longitudinal pad on the same; 'r' the roll restraint k_roll (N m/rad) on
-    a sleeper rigid in rotation."""
+    the sleeper's roll: rigid while the ballast holds the sleeper (its rocking on the
+    ballast is much stiffer than the grip: assumed), its rotational inertia alone
+    (``roll_inertia``) once the sleeper hangs (kb = 0: voided)."""
     if direction == "z":
         return params
     if direction == ROLL:
-        return type(params)(kp=params.k_roll, eta_p=params.eta_roll, ms=0.0, kb=math.inf)
+        if params.kb > 0:
+            return type(params)(kp=params.k_roll, eta_p=params.eta_roll, ms=0.0, kb=math.inf)
+        return type(params)(kp=params.k_roll, eta_p=params.eta_roll,
+                            ms=roll_inertia(params), kb=0.0)
     if direction not in DIRECTIONS:
         raise ValueError(f"support direction {direction!r}: use one of {', '.join(DIRECTIONS)}"
                          f" or {ROLL!r} (roll)")
@@ -56,6 +63,19 @@ def chain(params: SupportParameters, direction: str = "z") -> SupportParameters:
                                           + params.k_clip * params.eta_clip) / kp
     return type(params)(kp=kp, eta_p=eta, ms=params.ms_lat, kb=params.kb_lat,
                         eta_b=params.eta_b_lat)
+
+
+def roll_inertia(params: SupportParameters) -> float:
+    """Rotational inertia (kg m^2) of a rail's share of the sleeper about the rail axis at
+    its rail seat: the half sleeper (mass ms per rail, or half a flexible sleeper's mass,
+    from the track centre to its end, L / 2) as a uniform bar turning about the seat at
+    g / 2: ms ((L / 2)^2 / 12 + (L / 4 - g / 2)^2), L and g of ``params.sleeper`` or of the
+    default sleeper (2.6 m, 1.5 m: 0.151 m^2 times the mass). The other rail's hold on the
+    sleeper is not in a single-rail model."""
+    sl = params.sleeper if params.sleeper is not None else Sleeper(model="rigid")
+    mass = sl.mass / 2 if sl.model == "flexible" else params.ms
+    half, seat = sl.length / 2, sl.seat_distance / 2
+    return mass * (half ** 2 / 12 + (half / 2 - seat) ** 2)
 
 
 def directional_stiffness(params: SupportParameters, omega, direction: str = "z"):
@@ -78,4 +98,4 @@ def acts_in(params: SupportParameters, direction: str) -> bool:
 
 __all__ = ["HORIZONTAL_STIFFNESS", "HORIZONTAL_LOSS", "HORIZONTAL_SCALED", "HORIZONTAL_FIELDS",
            "GRIP_FIELDS", "GRIP_SCALED", "DIRECTIONS", "ROLL", "chain",
-           "directional_stiffness", "acts_in"]
+           "directional_stiffness", "acts_in", "roll_inertia"]
