@@ -316,10 +316,13 @@ def _assemble(sl: Sleeper):
 
 
 def _geometry(sl: Sleeper) -> tuple:
-    """What the free modes of unit EI and unit rho A depend on (the cache key)."""
-    shear = 0.0 if math.isinf(sl.kGA) else sl.EI / sl.kGA
+    """What the free modes of unit EI and unit rho A depend on (the cache key; the modes are
+    computed from these values). The ratios are rounded to 12 digits so that stiffness or
+    mass scaled by a common factor (a fit of f1) finds the same modes, not a last-digit
+    neighbour."""
+    shear = 0.0 if math.isinf(sl.kGA) else float(f"{sl.EI / sl.kGA:.12g}")
     return (sl.length, sl.seat_distance, int(sl.n_elements), shear,
-            sl.rotary_inertia / sl.mass_per_length)
+            float(f"{sl.rotary_inertia / sl.mass_per_length:.12g}"))
 
 
 @lru_cache(maxsize=32)
