@@ -329,3 +329,50 @@ def decay_rate_campaign(seed: int, a: float = 0.03, temps=(0.0, 15.0, 30.0), lev
                                         metadata=Metadata(date=f"2020-0{i + 1}-01",
                                                           temperature_c=T, section="S1")))
     return out
+
+
+# ------------------------------------------------------------------ lateral decay rates
+
+#: lateral cases: the fastening's roll restraint (N m/rad, -) switched on in the truth
+LATERAL_CASES = {"none": {}, "roll_restraint": {"k_roll": 1e6, "eta_roll": 0.3}}
+LATERAL_MODEL = "wfe-periodic"
+LATERAL_BANDS = (100.0, 630.0)  # Hz: the band centres of the small blind test
+
+
+def lateral_truth_spec(case: str = "none", model: str = LATERAL_MODEL):
+    """The truth track of a lateral case: truth_spec on supports acting vertically and
+    laterally, its lateral chain from TRUTH by the presets' rule
+    (railfem.track.supports.horizontal_support), the case's grip switched on."""
+    from railfem.track.supports import horizontal_support
+
+    spec = truth_spec(model)
+    s = spec.support
+    spec = spec.replace(support_directions="zy",
+                        **horizontal_support(s.kp, s.eta_p, s.kb, s.eta_b, s.ms))
+    return spec.replace(**LATERAL_CASES[case]) if LATERAL_CASES[case] else spec
+
+
+def decay_rates(case: str, seed: int, *, bands=LATERAL_BANDS, directions: str = "zy",
+                form: str = "cross", level: float = NOISE, model: str = LATERAL_MODEL,
+                rails=("li", "re")) -> list:
+    """EN 15461 decay rates per one-third-octave band (``bands``: lowest and highest centre,
+    Hz) of the lateral case's truth (lateral_truth_spec) in ``form`` ('cross': CROSS), one
+    row per direction ('z' vertical hammer and sensor on the head top, 'y' lateral on the
+    side of the head) and rail (repeats: same section and date, independent noise), each
+    band scattered by a seeded multiplicative Gaussian of RMS ``level``."""
+    from railfem.measurement import DecayRateMeasurement
+
+    spec = lateral_truth_spec(case, model)
+    spec = cross_spec(spec) if form == "cross" else spec
+    f = iec61260.ninth_octave_grid(*bands)
+    rng = np.random.default_rng(20_000 + seed)
+    out = []
+    for d in directions:
+        r = models.decay_rate(spec, f, output="head_lateral" if d == "y" else "head",
+                              cache=False)
+        for side in rails:
+            dr = np.asarray(r.decay_rate) * (1 + level * rng.standard_normal(len(r.frequency)))
+            out.append(DecayRateMeasurement(
+                frequency=np.asarray(r.frequency), decay_rate=dr, direction=d, sensor="head",
+                metadata=Metadata(section="S1", date="2020-01-01", rail_side=side)))
+    return out

@@ -12,9 +12,20 @@ the literature values of railfem.track.sleeper) and, for the chosen model or els
 new effect by BIC, the RMS per band before and after on the fitted and on the held-out
 bands. The structured residual per band is what exceeds the rail-to-rail scatter,
 sqrt(max(0, mean r^2 - s_b^2)) with s_b the pooled scatter of the group's two rails (dB);
-its median over the groups is given before and after. The diagnosis models vertical rows
-only (railfem.diagnosis.data.prepare): the lateral rows (``dir = h``) are summarised from
-the measured values and a forward check of the new options (``--lateral``).
+its median over the groups is given before and after. ``--lateral``: the lateral rows
+(``dir = h``) summarised from the measured values and a forward check of the new options.
+
+``--diagnose-lateral`` diagnoses, per section and date, the vertical and the lateral rows
+together (railfem.diagnosis.prepare(directions='zy'); the lateral rows in the lateral
+channel, hammer and sensor on the side of the head) on the periodic WFE track
+(``--lateral-model``, default wfe-periodic) with roll_restraint and the real-track effects
+(LATERAL_EFFECTS), and writes ``--lateral-out`` (default
+benchmarks/results/results_sbb_lateral.md): per group the verdict, the fitted values next
+to the literature, and the median structured residual per band before and after, fitted
+and held-out bands, vertical and lateral rows apart:
+
+    OPENBLAS_NUM_THREADS=1 python benchmarks/sbb/diagnose_sbb.py --diagnose-lateral \
+        --no-profile [--groups B5:2013-01-29] [--json /tmp/sbb_lateral.json]
 """
 from __future__ import annotations
 
@@ -32,7 +43,7 @@ sys.path.insert(0, str(ROOT))
 
 from railfem.diagnosis import residual as resid  # noqa: E402
 from railfem.diagnosis.effects import get  # noqa: E402
-from railfem.diagnosis.evaluate import Evaluator  # noqa: E402
+from railfem.diagnosis.effects.roll_restraint import K_ROLL_CLIPS  # noqa: E402
 from railfem.diagnosis.loop import diagnose  # noqa: E402
 from railfem.diagnosis.refit import refit  # noqa: E402
 from railfem.io.tdr_table import SBB_NIEDERWANGEN_COLUMNS, read_decay_rate_table  # noqa: E402
@@ -40,6 +51,8 @@ from railfem.track.sleeper import B90, TWO_LAYER_ASSUMED  # noqa: E402
 
 TABLE = Path("/work/shared/measured_data/sbb_niederwangen/tdr_niederwangen_wide.csv")
 NEW = ("sleeper_flexibility", "two_rail", "ballast_mass")
+LATERAL_EFFECTS = ("roll_restraint",) + NEW
+LATERAL_MODEL = "wfe-periodic"
 log = logging.getLogger("diagnose_sbb")
 
 
@@ -62,10 +75,13 @@ def repeat_scatter(rows) -> dict:
     return {float(c): float(np.sqrt(s)) for c, s, d in zip(f, s2, dof) if d > 0}
 
 
-def per_band(res, part) -> dict:
-    """{band: (mean r^2, n)} of the decay-rate residual (dB) over the group's records."""
+def per_band(res, part, lateral=None) -> dict:
+    """{band: (mean r^2, n)} of the decay-rate residual (dB) over the group's records
+    (lateral: None all, True the lateral records only, False the vertical ones)."""
     acc: dict = {}
     for b in res.select(part=part, quantity="tdr"):
+        if lateral is not None and ("head_lateral" in b.outputs) != lateral:
+            continue
         for k, c in enumerate(b.x):
             v = b.values[k].ravel()
             v = v[np.isfinite(v)]
@@ -75,12 +91,12 @@ def per_band(res, part) -> dict:
     return {c: (s / n, n) for c, (s, n) in acc.items()}
 
 
-def band_summary(res, scatter) -> dict:
+def band_summary(res, scatter, lateral=None) -> dict:
     """{part: {band: {rms, structured}}} (dB)."""
     out = {}
     for part in ("fit", "held"):
         out[part] = {}
-        for c, (m2, _) in per_band(res, part).items():
+        for c, (m2, _) in per_band(res, part, lateral).items():
             s = scatter.get(c, 0.0)
             out[part][c] = {"rms": float(np.sqrt(m2)),
                             "structured": float(np.sqrt(max(0.0, m2 - s ** 2)))}
@@ -90,7 +106,8 @@ def band_summary(res, scatter) -> dict:
 def refit_effect(d, name):
     """The base + effect ``name`` refitted on the diagnosis's data (as its screening)."""
     b = d.base
-    o = refit(d.data, Evaluator(), b.problem.model.spec, (get(name),), b.x, b.problem.scale)
+    o = refit(d.data, b.problem.model.evaluator, b.problem.model.spec, (get(name),), b.x,
+              b.problem.scale)
     return o, resid.make_residual(d.data, o.problem.predict(o.x))
 
 
@@ -173,6 +190,135 @@ def lateral_forward(bands=(100.0, 125.0, 160.0, 200.0, 250.0, 315.0)) -> dict:
                     if any(abs(c - b) < 1 for b in bands)}
         log.info("lateral %s: %s", tag, out[tag])
     return out
+
+
+# ------------------------------------------------------------------ lateral diagnosis
+
+
+def joint_groups(rows) -> dict:
+    """{section date: vertical and lateral rows} of the groups that have lateral rows."""
+    lat = groups(rows, "y")
+    ver = groups(rows, "z")
+    return {k: ver.get(k, []) + v for k, v in lat.items()}
+
+
+def candidate(c) -> dict:
+    return {"delta_bic": c["delta_bic"], "plausible": c["plausible"],
+            "implausible_why": c["implausible_why"],
+            "held_reduction": c["held_out"].get("reduction"),
+            "held_p": c["held_out"].get("p"), "held_pass": c["held_out"].get("pass"),
+            "params": fitted(c)}
+
+
+def run_lateral_group(name, rows, model, starts, effects=LATERAL_EFFECTS, profile=True):
+    """The group's vertical and lateral rows diagnosed together (see the docstring)."""
+    t0 = time.perf_counter()
+    d = diagnose(rows, model=model, spacing=0.6, n_starts=starts, effects=effects,
+                 profile_final=profile, data_options={"directions": "zy"})
+    by = {c["name"]: c for c in d.candidates}
+    new = {n: candidate(by[n]) if n in by else None for n in effects}
+    ok = [n for n in effects if new[n] is not None]
+    best = min(ok, key=lambda n: new[n]["delta_bic"]) if ok else None
+    after, res_after = (d.chosen.name, d.residual_after) if d.chosen is not None else \
+        ((best, refit_effect(d, best)[1]) if best else (None, None))
+    out = {"group": name, "verdict": d.verdict, "statement": d.statement,
+           "chosen": d.chosen.name if d.chosen else None, "after": after,
+           "base": {p["name"]: p["value"] for p in d.base.parameters()
+                    if p["name"] in ("kp", "eta_p", "kb", "eta_b", "eta_r")},
+           "structured_before_db": d.structure_before.get("structured_rms_db"),
+           "structured_after_db": (d.structure_after or {}).get("structured_rms_db"),
+           "new": new, "best_new": best, "failures": d.failures,
+           "seconds": time.perf_counter() - t0}
+    for tag, lat in (("lateral", True), ("vertical", False)):
+        rs = [r for r in rows if (r.direction == "y") == lat]
+        sc = repeat_scatter(rs) if len(rs) > 1 else {}
+        out[f"scatter_{tag}"] = sc
+        out[f"bands_before_{tag}"] = band_summary(d.residual_before, sc, lat)
+        out[f"bands_after_{tag}"] = (band_summary(res_after, sc, lat)
+                                     if res_after is not None else None)
+    return out
+
+
+def markdown_lateral(results, command) -> str:
+    L = ["# SBB Niederwangen: vertical and lateral rows diagnosed together", "",
+         f"Reproduce: `{command}`", "",
+         "Per section and date, the vertical (`v`) and lateral (`h`) rows of both rails "
+         f"diagnosed together on the {LATERAL_MODEL} track (the lateral rows with the "
+         "lateral hammer and sensor on the side of the head; the lateral pad and the "
+         "sleeper's lateral ballast support follow the fitted vertical ones by the presets' "
+         "rule, kp/7 and kb/2), every third band held out, candidates "
+         f"{', '.join(LATERAL_EFFECTS)}. Literature for the roll stiffness k_roll: elastic "
+         f"clips of a W14-type fastening ~{K_ROLL_CLIPS:.0e} N m/rad (derived), the vertical "
+         "pad across the foot ~1.1e6 N m/rad for 600 MN/m (already in the base), above "
+         "~1e5 N m/rad the foot bearing on the guide plates (docs/model.md).", "",
+         "| group | verdict | chosen | structured before → after (dB) | s |",
+         "|---|---|---|---|---|"]
+    for g in results:
+        L.append(f"| {g['group']} | {g['verdict']} | {g['chosen'] or '—'} | "
+                 f"{fmt(g['structured_before_db'])} → {fmt(g['structured_after_db'])} | "
+                 f"{g['seconds']:.0f} |")
+    L += ["", "## The candidates per group", "",
+          "ΔBIC against the base (negative: better), held-out gain (p), plausible, fitted "
+          "values (95 % interval); base kp, kb in N/m.", "",
+          "| group | base | effect | ΔBIC | held-out gain (p) | plausible | fitted |",
+          "|---|---|---|---|---|---|---|"]
+    for g in results:
+        base = ", ".join(f"{k} {v:.3g}" for k, v in g["base"].items())
+        for n, e in g["new"].items():
+            if e is None:
+                L.append(f"| {g['group']} | {base} | {n} | failed or not tried | | | |")
+                continue
+            par = "; ".join(
+                f"{k} {v['value']:.3g}" + (f" [{v['ci95'][0]:.3g}, {v['ci95'][1]:.3g}]"
+                                           if v.get("ci95") else "")
+                for k, v in e["params"].items())
+            why = "yes" if e["plausible"] else f"no ({e['implausible_why']})"
+            L.append(f"| {g['group']} | {base} | {n} | {e['delta_bic']:.1f} | "
+                     f"{fmt(e['held_reduction'])} ({fmt(e['held_p'])}) | {why} | {par} |")
+    for tag in ("lateral", "vertical"):
+        L += ["", f"## Median structured residual per band over the groups, {tag} rows (dB)",
+              "", "After: the chosen model, else the best candidate by BIC. Structured: "
+              "what exceeds the rail-to-rail scatter of the group.", "",
+              "| band (Hz) | part | before | after | RMS before | RMS after |",
+              "|---|---|---|---|---|---|"]
+        for part in ("held", "fit"):
+            mb = median_bands(results, f"bands_before_{tag}", part, "structured")
+            ma = median_bands(results, f"bands_after_{tag}", part, "structured")
+            rb = median_bands(results, f"bands_before_{tag}", part, "rms")
+            ra = median_bands(results, f"bands_after_{tag}", part, "rms")
+            for c in mb:
+                L.append(f"| {c:g} | {part} | {fmt(mb[c])} | {fmt(ma.get(c))} | "
+                         f"{fmt(rb.get(c))} | {fmt(ra.get(c))} |")
+    L += ["", "## Verdicts in words", ""]
+    L += [f"* **{g['group']}** (after: {g['after'] or '—'}): {g['statement']}"
+          + (f" Failures: {g['failures']}" if g["failures"] else "") for g in results]
+    return "\n".join(L) + "\n"
+
+
+def _floats(g):
+    """A lateral group result read back from JSON (band keys as floats)."""
+    for k in list(g):
+        if k.startswith("bands_") and g[k]:
+            g[k] = {p: {float(c): v for c, v in d.items()} for p, d in g[k].items()}
+        elif k.startswith("scatter_"):
+            g[k] = {float(c): v for c, v in g[k].items()}
+    return g
+
+
+def main_lateral(a, rows, want, cmd):
+    results = [_floats(g) for m in a.merge for g in json.loads(Path(m).read_text())]
+    done = {g["group"] for g in results}
+    for name, rs in joint_groups(rows).items():
+        if name in done or (want and not any(name.startswith(w.replace(":", " "))
+                                             for w in want)):
+            continue
+        log.info("lateral group %s (%d rows)", name, len(rs))
+        results.append(run_lateral_group(name, rs, a.lateral_model, a.starts,
+                                         profile=not a.no_profile))
+        if a.json:
+            Path(a.json).write_text(json.dumps(results, indent=1, default=float))
+        Path(a.lateral_out).write_text(markdown_lateral(results, cmd))
+    Path(a.lateral_out).write_text(markdown_lateral(results, cmd))
 
 
 # ------------------------------------------------------------------ the table
@@ -287,6 +433,11 @@ def main(argv=None):
     p.add_argument("--no-profile", action="store_true", help="keep the base's rail loss "
                    "factor for the candidates (diagnose(profile_final=False)): ~6x cheaper")
     p.add_argument("--lateral", action="store_true", help="also the lateral forward check")
+    p.add_argument("--diagnose-lateral", action="store_true", help="diagnose the vertical "
+                   "and lateral rows of each group together (no vertical-only run)")
+    p.add_argument("--lateral-model", default=LATERAL_MODEL)
+    p.add_argument("--lateral-out",
+                   default=str(ROOT / "benchmarks/results/results_sbb_lateral.md"))
     p.add_argument("--out", default=str(ROOT / "benchmarks/results/results_sbb.md"))
     p.add_argument("--json", default="")
     p.add_argument("--merge", nargs="*", default=[],
@@ -297,6 +448,10 @@ def main(argv=None):
     table = read_decay_rate_table(TABLE, columns=SBB_NIEDERWANGEN_COLUMNS)
     rows = table.rows()
     want = [s for s in a.groups.split(",") if s]
+    cmd = "OPENBLAS_NUM_THREADS=1 python benchmarks/sbb/diagnose_sbb.py " + " ".join(
+        sys.argv[1:] if argv is None else argv)
+    if a.diagnose_lateral:
+        return main_lateral(a, rows, want, cmd.strip())
     results = [g for m in a.merge for g in _vertical(json.loads(Path(m).read_text()))]
     for name, rs in ([] if a.merge else groups(rows).items()):
         if want and not any(name.startswith(w.replace(":", " ")) for w in want):
@@ -315,8 +470,6 @@ def main(argv=None):
                    "note": "The diagnosis takes vertical rows only; lateral rows: measured "
                            "median and the lateral decay rate of the site preset's lateral "
                            "track (wfe-periodic) with each new option."}
-    cmd = "OPENBLAS_NUM_THREADS=1 python benchmarks/sbb/diagnose_sbb.py " + " ".join(
-        sys.argv[1:] if argv is None else argv)
     Path(a.out).write_text(markdown(results, cmd.strip(), lateral))
     if a.json:
         Path(a.json).write_text(json.dumps({"vertical": results, "lateral": lateral},
