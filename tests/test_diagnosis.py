@@ -49,7 +49,8 @@ def small_record():
 
 @pytest.mark.parametrize("name", [n for n in effects.names()  # section_geometry: WFE only,
                                   if n not in ("temperature", "preload",  # its own test
-                                               "section_geometry")])
+                                               "section_geometry",  # roll_restraint:
+                                               "roll_restraint")])  # lateral, its own test
 def test_each_effect_changes_what_the_model_predicts(name, small_record):
     """apply / geometry / apply_measurement at the declared start values move the
     prediction away from the base model's by more than a tenth of a dB somewhere."""

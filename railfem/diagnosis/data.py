@@ -314,9 +314,10 @@ def prepare(data, *, spacing: float | None = None, directions: str | None = None
     if isinstance(data, DiagnosisData):
         return data
     items = list(data) if isinstance(data, (list, tuple)) else [data]
-    if directions is None:  # over every item: vertical rows if there are any
-        every = [r for item in items if isinstance(item, DECAY_RATES) for r in _rows(item)]
-        directions = "z" if any(r.direction == "z" for r in every) or not every else "y"
+    rows_of = {i: _rows(item) for i, item in enumerate(items) if isinstance(item, DECAY_RATES)}
+    every = [r for rs in rows_of.values() for r in rs]
+    # over every item: the rows of ``directions`` (by default vertical if there are any)
+    kept = set(map(id, select_directions(every, directions))) if every else set()
     records, spacings, desc = [], [], []
     for i, item in enumerate(items):
         if isinstance(item, HammerMeasurement):
@@ -326,7 +327,9 @@ def prepare(data, *, spacing: float | None = None, directions: str | None = None
             desc.append(f"hammer test, {len(item.positions)} positions, sensors "
                         f"{', '.join(item.sensor_names)}")
         elif isinstance(item, DECAY_RATES):
-            rows = select_directions(_rows(item), directions)
+            rows = [r for r in rows_of[i] if id(r) in kept]
+            if not rows:
+                continue
             if spacing is None:
                 raise ValueError("diagnosing a decay rate needs the sleeper spacing (m), "
                                  "e.g. spacing=0.6")
