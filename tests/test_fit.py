@@ -264,7 +264,8 @@ def test_kernel_parameter_estimate_is_the_minimum_of_its_final_profile():
     meas = _split_eta_r_hammer()
     res = fit(meas, "timoshenko-discrete", parameters=("kp", "eta_p", "eta_r"),
               base=rf.preset("site").replace(ms=150.0, n_supports=41), use=("point", "tdr"),
-              n_starts=1, workers=1, profiles=(), slow_nodes=4, slow_refine=1)
+              n_starts=1, workers=1, profiles=(), slow_nodes=4, slow_refine=1,
+              discrepancy=None)  # the discrepancy's form: tests/test_fit_discrepancy.py
     assert res.scale["point"] != pytest.approx(res.scale["tdr"], rel=0.2)  # re-weighted
     sp = res.slow_profile
     p = res.parameter("eta_r")

@@ -142,6 +142,7 @@ def fit_args(p: argparse.ArgumentParser) -> None:
     add_workers(p)
     p.add_argument("--seed", type=int, default=0, help="seed of the start points")
     p.add_argument("--no-profiles", action="store_true", help="skip the profile likelihoods")
+    discrepancy_args(p)
     p.add_argument("--out", type=Path, default=Path("railfem-output/fit"), metavar="DIR",
                    help="output folder (default railfem-output/fit)")
 
@@ -155,6 +156,20 @@ def base_args(p: argparse.ArgumentParser) -> None:
                         "(one spring row spread over it); default 0, point supports (fit: "
                         "add pad_length to --parameters to profile it; diagnose compares "
                         "pad lengths as the pad_length effect)")
+
+
+def discrepancy_args(p: argparse.ArgumentParser) -> None:
+    """The model-form discrepancy option, the same for fit and diagnose."""
+    p.add_argument("--discrepancy", choices=("ensemble", "none"), default="ensemble",
+                   help="model-form discrepancy the residuals and intervals carry: "
+                        "'ensemble' (default: the base model's own discretisation variants, "
+                        "straight edges, another mesh size and spring count, per band) or "
+                        "'none' (noise alone)")
+
+
+def discrepancy_from_args(args):
+    """--discrepancy as the library takes it: 'ensemble' or None."""
+    return None if args.discrepancy == "none" else args.discrepancy
 
 
 def base_from_args(args):
@@ -187,7 +202,7 @@ def fit_run(args) -> int:
                 workers=workers_from_args(args), seed=args.seed,
                 transfer_positions=args.transfer_positions, f_range=f_range_from_args(args),
                 profiles=() if args.no_profiles else ("kp", "kb"),
-                command=" ".join(sys.argv))
+                discrepancy=discrepancy_from_args(args), command=" ".join(sys.argv))
     sys.stdout.write(f"base model: {describe_base(base, params)}\n")
     from ..jobs.fit import parameter_line
 
@@ -239,6 +254,7 @@ def diagnose_args(p: argparse.ArgumentParser) -> None:
                         "on REF and held there, so the residual shows what differs")
     p.add_argument("--reference-select", default=None, metavar="K=V,...",
                    help="table REF: its rows, e.g. section=A (as --select)")
+    discrepancy_args(p)
     p.add_argument("--out", type=Path, default=Path("railfem-output/diagnose"), metavar="DIR",
                    help="output folder (default railfem-output/diagnose)")
 
@@ -258,7 +274,7 @@ def diagnose_run(args) -> int:
                      n_starts=args.starts, workers=workers_from_args(args), passby=passby,
                      f_range=f_range_from_args(args), base=base_from_args(args),
                      reference=args.reference, reference_select=args.reference_select,
-                     command=" ".join(sys.argv))
+                     discrepancy=discrepancy_from_args(args), command=" ".join(sys.argv))
     for g in s["groups"]:
         lines = g.get("summary") or [g["statement"]]
         sys.stdout.write(f"{g['name']}: " + "\n  ".join(lines) + "\n")

@@ -67,7 +67,8 @@ def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
                  group: str | None = "section,date", spacing: float = 0.6, effects=None,
                  n_starts: int = 4, workers: int = 1, cache=None, campaign: bool = True,
                  passby: dict | None = None, f_range=None, base=None,
-                 reference=None, reference_select=None, command: str = "") -> dict:
+                 reference=None, reference_select=None, discrepancy="ensemble",
+                 command: str = "") -> dict:
     """Diagnose DATA and write the report(s) to ``out_dir``; returns the run record.
     DATA: a hammer dataset folder or descriptor, a decay-rate table, or a list of pass-by
     recordings (``passby``: options of passby_rows). f_range: (low, high) Hz of the FRF
@@ -114,7 +115,7 @@ def run_diagnose(data, out_dir, *, model: str = "wfe-discrete", select=None,
               if recs else str(data), "model": model,
               "kind": kind, "groups": []}
     opts = dict(model=model, n_starts=n_starts, workers=workers, cache=cache,
-                effects=effects, base=base,
+                effects=effects, base=base, discrepancy=discrepancy,
                 data_options={"f_range": tuple(f_range)} if f_range and kind == "hammer"
                 else None)
     arg = " ".join(str(p) for p in paths)
@@ -190,7 +191,8 @@ def against_reference(ms, refs: dict, calibrated: dict, *, spacing, opts):
     key = date if date in refs else None
     if key not in calibrated:
         src = refs[key] if key in refs else [m for rows in refs.values() for m in rows]
-        keep = {k: opts[k] for k in ("base", "n_starts", "workers", "cache", "data_options")}
+        keep = {k: opts[k] for k in ("base", "n_starts", "workers", "cache", "data_options",
+                                     "discrepancy")}
         calibrated[key] = ref_mod.calibrate(src, model=opts["model"], spacing=spacing,
                                             **keep)
     return ref_mod.diagnose(ms, reference=calibrated[key], spacing=spacing, **opts)

@@ -33,7 +33,7 @@ import numpy as np
 from ..atomic import prepare_output_dir, write_text_atomic
 from ..identify.campaign import fit_campaign
 from ..identify.data import model_quantities
-from ..identify.fit import CHI2_95, DEFAULT_PARAMETERS, PROFILED, fit
+from ..identify.fit import CHI2_95, DEFAULT_PARAMETERS, DISCREPANCY, PROFILED, fit
 from ..io.data import read_data
 from .common import FIT_PROGRESS, watch_progress
 
@@ -45,15 +45,19 @@ def run_fit(data, out_dir, *, model: str = "wfe-discrete", use=None,
             campaign: bool = False, scheduler: str | None = None, base=None,
             n_starts: int = 8, workers: int | None = None, seed: int = 0,
             transfer_positions=None, f_range=None, profiles=PROFILED,
-            cache=None, slow_nodes=None, slow_refine=None, command: str = "") -> dict:
-    """Fit ``model`` to DATA and write the outputs to ``out_dir``; returns the run record."""
+            cache=None, slow_nodes=None, slow_refine=None, discrepancy=DISCREPANCY,
+            command: str = "") -> dict:
+    """Fit ``model`` to DATA and write the outputs to ``out_dir``; returns the run record.
+    discrepancy: the model-form discrepancy ('ensemble', the default, as ``railfem
+    diagnose``; None: noise only), railfem.identify.fit."""
     t0 = time.perf_counter()
     out = prepare_output_dir(out_dir, "fit")
     kind, items = read_data(data, select=select, row=row, campaign=campaign)
     opts = dict(model=model, parameters=tuple(parameters), n_starts=n_starts, seed=seed,
-                cache=cache, profiles=profiles, slow_nodes=slow_nodes, slow_refine=slow_refine)
+                cache=cache, profiles=profiles, slow_nodes=slow_nodes, slow_refine=slow_refine,
+                discrepancy=discrepancy)
     record = {"command": "fit", "argv": command, "data": str(data), "model": model,
-              "parameters": list(parameters), "kind": kind}
+              "parameters": list(parameters), "kind": kind, "discrepancy": discrepancy}
     if kind == "hammer":
         target_options = {"transfer_positions": transfer_positions, "f_range": f_range}
         with watch_progress(*FIT_PROGRESS):
@@ -134,6 +138,7 @@ def fit_summary(res, data, label: str = "") -> list[str]:
     L += ["  " + parameter_line(p) for p in res.parameters]
     L.append("residual RMS: " + ", ".join(f"{q} {v:.2f} dB"
                                           for q, v in res.residual_rms.items()))
+    L.append(discrepancy_line(res.discrepancy))
     worst = worst_band(res)
     nxt = []
     if worst is not None:
@@ -151,6 +156,20 @@ def fit_summary(res, data, label: str = "") -> list[str]:
         nxt.append("the parameters are determined and the residual is small: the fitted "
                    "spec is in fit.json ('spec')")
     return L + ["next: " + n for n in nxt]
+
+
+def discrepancy_line(d: dict | None) -> str:
+    """The model-form discrepancy a fit used, in one line: its variants and per quantity
+    the RMS over the bands and the largest per-band s_d (dB)."""
+    if not d or d.get("method") == "none" or not d.get("sd_db"):
+        return "model-form discrepancy: none (residuals scaled by noise alone)"
+    parts = []
+    for q, sd in d["sd_db"].items():
+        k = int(np.argmax(sd))
+        parts.append(f"{q} RMS {float(np.sqrt(np.mean(np.square(sd)))):.2f} dB, largest "
+                     f"{sd[k]:.2f} dB at {d['bands_hz'][k]:g} Hz")
+    return (f"model-form discrepancy ({d['method']} over {', '.join(d['variants'])}; "
+            f"per-band s_d in fit.json): " + "; ".join(parts))
 
 
 def _json(o):
