@@ -184,7 +184,9 @@ class SupportDeviation:
         its clips); in roll the sleeper is rigid while the ballast holds it and turns
         against its own rotational inertia once voided (railfem.track.directions.chain), so
         a voided sleeper's grip still acts against the sleeper's inertia but no longer
-        against the ground. The sleeper-mass factor scales that inertia with ms."""
+        against the ground: above sqrt(k_roll / J) / 2 pi (12 Hz for 4e5 N m/rad and the
+        default sleeper) nearly as before, below it less. The sleeper-mass factor scales
+        that inertia with ms."""
         def f(value, factor):  # 0 * inf is an absent element, not NaN
             return 0.0 if factor == 0 else value * factor
         return replace(p, kp=p.kp * self.kp, eta_p=p.eta_p * self.eta_p, ms=p.ms * self.ms,

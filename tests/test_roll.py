@@ -80,7 +80,7 @@ def test_clip_is_in_parallel_with_the_lateral_pad():
 def test_voided_sleeper_keeps_its_grip_against_the_sleeper_inertia_only():
     w = 2 * np.pi * np.array([0.0, 5.0, 20.0, 150.0, 700.0])
     kr = 4e5 * (1 + 0.2j)
-    J = SITE.ms * (1.3 ** 2 / 12 + (0.65 - 0.75) ** 2)  # half sleeper about the rail seat
+    J = SITE.ms * 2.6 ** 2 / 12  # half the 2.6 m sleeper's inertia about its centre
     void = specs.SupportDeviation(index=0, kb=0.0).apply(GRIP)
     z = -w ** 2 * J  # the hanging sleeper's roll: its inertia, no ground
     with np.errstate(invalid="ignore"):
