@@ -387,16 +387,18 @@ def _receptance(sl: Sleeper, case: str, w_bytes: bytes, s_bytes: bytes, shape) -
     r, t = slice(0, m), slice(m, None)
     C = bed[r, t]  # the bed's coupling of the retained to the truncated modes, per unit s
     P = (C.T[:, :, None] * C.T[:, None, :]).reshape(-1, m * m)  # C_it C_jt, row t
-    diag_r, bed_t = np.diag(d[r]), np.diagonal(bed)[t]
+    bed_t, ii = np.diagonal(bed)[t], np.arange(m)
     out = np.empty(w.shape, dtype=complex)
-    for i0 in range(0, len(w), 512):  # bounded memory: (chunk, m, m) complex
-        ws, ss = w[i0:i0 + 512, None], s[i0:i0 + 512, None]
+    for i0 in range(0, len(w), 256):  # bounded memory: (chunk, m, m) complex
+        ws, ss = w[i0:i0 + 256, None], s[i0:i0 + 256, None]
         inv_t = 1.0 / (d[t] + ss * bed_t - ws ** 2)  # the truncated modes, uncoupled
-        S = (ss[..., None] * (bed[r, r] - ss[..., None] * (inv_t @ P).reshape(-1, m, m))
-             + (diag_r - np.eye(m) * ws[..., None] ** 2))  # their Schur complement
+        S = (inv_t.real @ P + 1j * (inv_t.imag @ P)).reshape(-1, m, m)  # C inv_t C^T
+        S *= -ss[..., None] ** 2
+        S += ss[..., None] * bed[r, r]
+        S[:, ii, ii] += d[r] - ws ** 2  # the retained modes' Schur complement
         g = row[r] - ss * ((row[t] * inv_t) @ C.T)
         q = np.linalg.solve(S, g[..., None])[..., 0]
-        out[i0:i0 + 512] = inv_t @ row[t] ** 2 + np.einsum("fi,fi->f", g, q)
+        out[i0:i0 + 256] = inv_t @ row[t] ** 2 + np.einsum("fi,fi->f", g, q)
     out[free] = complex(math.inf)
     return out.reshape(shape)
 
