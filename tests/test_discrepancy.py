@@ -207,3 +207,102 @@ def test_a_change_within_the_discrepancy_does_not_pass_the_gate(small_data):
     assert not small["pass"] and small["ratio"] == pytest.approx(0.09, rel=0.05)
     assert big["pass"] and big["ratio"] == pytest.approx(16.0, rel=0.05)
     assert R.beyond_discrepancy(small_data, pred(0.0), pred(4.0), None) is None
+
+
+# ------------------------------------------------------------------ along the change
+
+
+def _variant_predictions(data, labels):
+    """(base, {label: variant}) predictions of the beam model on ``data`` and the
+    discrepancy estimated from those variants (its samples are variant minus base)."""
+    from railfem.identify.problem import Prediction
+
+    spec, ev = g.truth_spec(MODEL), Evaluator()
+    disc = D.ensemble(data.records, ev.receptance, spec, labels)
+
+    def pred(s):
+        return {r.name: Prediction(level=a, power=a)
+                for r in data.records for a in [ev.receptance(s, r)]}
+
+    return pred(spec), {lab: pred(s) for lab, s in D.variants(spec, labels)}, disc
+
+
+def test_along_discrepancy_is_the_estimate_in_units_of_the_variants_shift(small_data):
+    """A candidate that changes the model exactly as one variant does moves along the
+    discrepancy by theta = 1 for that variant and 0 for the base configuration ('same'):
+    z^2 = 1 / mean theta^2 = 2 with the two, 1 with the variant alone, and 1 / factor of
+    that for a discrepancy scaled by ``factor``; the threshold is Student's t^2 over the
+    variants (t(0.975, 2) = 4.303, t(0.975, 1) = 12.706)."""
+    labels = ("same", "constants: catalogue")
+    base, var, disc = _variant_predictions(small_data, labels)
+    sc = Scale({"point": 0.43, "transfer": 0.43, "tdr": 0.3}, disc)
+    a = R.along_discrepancy(small_data, base, var["constants: catalogue"], sc)
+    np.testing.assert_allclose(a["theta"], [0.0, 1.0], atol=1e-4)
+    assert a["z2"] == pytest.approx(2.0, rel=1e-3)
+    assert a["threshold"] == pytest.approx(4.303 ** 2, rel=1e-3)
+    sc4 = Scale(dict(sc), disc.scaled(4.0))
+    assert R.along_discrepancy(small_data, base, var["constants: catalogue"],
+                               sc4)["z2"] == pytest.approx(0.5, rel=1e-3)
+    one = D.ensemble(small_data.records, Evaluator().receptance, g.truth_spec(MODEL),
+                     ("constants: catalogue",))
+    a1 = R.along_discrepancy(small_data, base, var["constants: catalogue"],
+                             Scale(dict(sc), one))
+    assert a1["z2"] == pytest.approx(1.0, rel=1e-3)
+    assert a1["threshold"] == pytest.approx(12.706 ** 2, rel=1e-3)
+    # no change, or a discrepancy without samples: nothing to say
+    assert R.along_discrepancy(small_data, base, base, sc) is None
+    bare = D.Discrepancy(index=disc.index, variance=disc.variance)
+    assert R.along_discrepancy(small_data, base, var["constants: catalogue"],
+                               Scale(dict(sc), bare)) is None
+
+
+def test_a_change_the_variants_make_does_not_pass_the_gate_however_large(small_data):
+    """The variant's own change is far above the summed-band ratio (it is the whole
+    discrepancy: ratio ~ 1 / mean over the variants of their share, 2 here) yet it is the
+    discretisation: the gate fails it along its direction; the same change scaled up
+    fivefold in dB lies 5 variant-SDs out (z^2 = 2 x 25 = 50 > 18.5) and passes."""
+    from railfem.identify.problem import Prediction
+
+    labels = ("same", "constants: catalogue")
+    base, var, disc = _variant_predictions(small_data, labels)
+    sc = Scale({"point": 0.43, "transfer": 0.43, "tdr": 0.3}, disc)
+    v = var["constants: catalogue"]
+    gate = R.beyond_discrepancy(small_data, base, v, sc)
+    assert gate["ratio"] > R.BEYOND_RATIO and not gate["pass"], gate
+    # five times the variant's level change (point and transfer; the decay rate follows
+    # from the mobilities, so its change is not exactly five times: z^2 only about 50)
+    big = {n: Prediction(level=base[n].level * np.abs(v[n].level / base[n].level) ** 5,
+                         power=base[n].level * np.abs(v[n].level / base[n].level) ** 5)
+           for n in base}
+    gb = R.beyond_discrepancy(small_data, base, big, sc)
+    assert gb["along"]["z2"] == pytest.approx(50.0, rel=0.3) and gb["pass"], gb
+
+
+def test_grid_inflation_carries_the_discrepancy_with_few_degrees_of_freedom():
+    """A grid parameter whose secant column g is moved by three variants (N = a_j g: each
+    shifts the estimate by exactly a_j): its variance gains sum a_j^2 and, with that part
+    dominant, the quantile is Student's with about 3 degrees of freedom instead of
+    N - p (t^2 ratio 10.13 / 3.86); without discrepancy (or a zero one) the factor is as
+    before."""
+    from scipy import stats
+
+    from railfem.diagnosis.refit import grid_inflation
+
+    rng = np.random.default_rng(4)
+    n = 480
+    xg = np.linspace(0, 1, n)
+    J = np.column_stack([np.ones_like(xg), np.cos(5 * xg)])
+    col = np.sin(3 * xg)
+    e = rng.standard_normal(n)
+    cl = np.arange(n)
+    plain = grid_inflation(J, e, e + 0.01 * col, 0.01, cl)
+    assert grid_inflation(J, e, e + 0.01 * col, 0.01, cl, np.zeros((n, 3))) == plain
+    Jx = np.column_stack([J, col])
+    c_model = float(e @ e / (n - 3) * np.linalg.inv(Jx.T @ Jx)[-1, -1])
+    a = np.array([1.0, -2.0, 1.5]) * 100 * np.sqrt(c_model)  # sum a^2 ~ 7e4 C
+    got = grid_inflation(J, e, e + 0.01 * col, 0.01, cl, col[:, None] * a[None, :])
+    v_d = float(a @ a)
+    nu = (c_model + v_d) ** 2 / (c_model ** 2 / (n - 3) + v_d ** 2 / 3)
+    t2 = (stats.t.ppf(0.975, nu) / stats.t.ppf(0.975, n - 3)) ** 2
+    assert t2 == pytest.approx(10.128 / 3.861, rel=0.01)
+    assert got == pytest.approx(t2 * (c_model + v_d) / c_model, rel=1e-3)

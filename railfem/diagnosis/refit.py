@@ -273,7 +273,8 @@ def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
             j = keys.index(k)
             nb = best[:j] + (_nearest_other(prof["values"], best[j]),) + best[j + 1:]
             prof["inflation"] = grid_inflation(J, r, problem_for(nb).residual(x),
-                                               nb[j] - best[j], clusters)
+                                               nb[j] - best[j], clusters,
+                                               pb.discrepancy_columns())
         prof.update(interval_from_profile(prof, s2 * prof.get("inflation", 1.0)))
     k = len(x) + len(keys) + 1  # + the rail loss factor (fitted with the base)
     return Outcome(effects=effects, grid=dict(zip(keys, best)), x=x,
@@ -286,17 +287,40 @@ def _nearest_other(values, v):
     return min((u for u in values if u != v), key=lambda u: abs(u - v))
 
 
-def grid_inflation(J, r, r_nb, step, clusters) -> float:
+def grid_inflation(J, r, r_nb, step, clusters, discrepancy=None) -> float:
     """Variance inflation of a profiled grid parameter: with its column (r_nb - r) / step
     (the residual at the neighbouring grid value, the rest held) added to the Jacobian, the
-    cluster-robust over the model-based variance of that parameter, at least 1. The profile
-    interval's threshold (chi^2 s^2) is scaled by it, as the continuous parameters take
-    the larger of the two variances."""
+    larger of the cluster-robust and the model-based variance of that parameter plus what
+    the model-form ``discrepancy`` adds (N: railfem.identify.problem.Problem.
+    discrepancy_columns, one column per variant of the base; the estimate's shift under
+    each variant projected on the grid's secant, uncertainty.nuisance_covariance), over
+    the model-based variance, at least 1. The profile interval's threshold (chi^2 s^2) is
+    scaled by it, as the continuous parameters take the same variance.
+
+    The discrepancy term is the model-form error expressed in the grid parameter's own
+    units: near a cut-on the variants' level differences are a shift of the cut-on, and
+    their projection on the secant of a parameter that moves the cut-on (a foot
+    thickness) is the thickness change that would make the same shift. The interval then
+    holds the truth of data from another discretisation, whose cut-on sits elsewhere by
+    about that much. That variance is estimated from a few variants (their number the
+    columns of N): the interval's quantile is Student's with the Welch-Satterthwaite
+    degrees of freedom nu of noise part (N - p entries) plus discrepancy part (the
+    variants), folded into the returned factor as t^2(nu) / t^2(N - p) (three variants
+    alone: 10.1 / 3.84; 1 without discrepancy)."""
     Jx = np.column_stack([J, (r_nb - r) / step])
     _, C_diag, *_ = uncertainty.covariance(Jx, r)
+    if not (np.isfinite(C_diag[-1]) and C_diag[-1] > 0):
+        return 1.0
     C_rob, _ = uncertainty.robust_covariance(Jx, r, clusters)
-    ratio = C_rob[-1, -1] / C_diag[-1] if np.isfinite(C_diag[-1]) and C_diag[-1] > 0 else 1.0
-    return float(max(1.0, ratio))
+    var = max(C_diag[-1], C_rob[-1, -1])
+    factor = 1.0
+    if discrepancy is not None and np.size(discrepancy):
+        v_d = float(uncertainty.nuisance_covariance(Jx, np.asarray(discrepancy))[-1, -1])
+        dof_n = max(len(r) - Jx.shape[1], 1)
+        dof = (var + v_d) ** 2 / (var ** 2 / dof_n + v_d ** 2 / np.shape(discrepancy)[1])
+        factor = float((stats.t.ppf(0.975, dof) / stats.t.ppf(0.975, dof_n)) ** 2)
+        var += v_d
+    return float(max(1.0, factor * var / C_diag[-1]))
 
 
 def profile_inflation(o: Outcome, key, prof: dict) -> float:
@@ -306,7 +330,8 @@ def profile_inflation(o: Outcome, key, prof: dict) -> float:
     vn = _nearest_other(prof["values"], o.grid[key])
     r = pb.residual(o.x)
     r_nb = regrid(pb, {**pb.model.grid, key: vn}).residual(o.x)
-    return grid_inflation(_jacobian(pb, o.x), r, r_nb, vn - o.grid[key], pb.clusters())
+    return grid_inflation(_jacobian(pb, o.x), r, r_nb, vn - o.grid[key], pb.clusters(),
+                          pb.discrepancy_columns())
 
 
 def _profile_grid(keys, values, best, results, problem_for, x_base, refine_steps):
