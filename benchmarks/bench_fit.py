@@ -3,6 +3,19 @@ foot, 69 frequencies; point + transfers + decay rate) and the SBB decay-rate tab
 
     python benchmarks/bench_fit.py [--workers 2] [--skip-sbb]
         [--out benchmarks/results/results_fit.txt]
+    python benchmarks/bench_fit.py --commands [--old SRC]   # railfem fit, cold and warm
+    python benchmarks/bench_fit.py --cross SEEDS [--step 2]  # blind cross-model intervals
+
+``--commands``: ``railfem fit /work/shared/datasets/practice_site_b --out DIR`` (the
+command's defaults: wfe-discrete, five base parameters, model-form discrepancy) cold (a new
+empty RAILFEM_CACHE) and warm (the same command again), wall and CPU seconds (the child's
+user + system), against the code in ``--old`` (a source tree run with PYTHONPATH, e.g.
+``mkdir /tmp/old && git archive REV railfem | tar -x -C /tmp/old``) in the same session;
+the section "commands" of the results file is replaced. ``--cross``: seeds 0..SEEDS-1 of
+clean cross-model data (benchmarks/blind/generators.py, dataset('none', seed,
+model='wfe-discrete', form='cross'), every ``--step``-th line of 50-4000 Hz), fitted with
+and without the discrepancy: per seed which base parameters lie inside their 95 %
+intervals, and the median half-widths (section "cross").
 
 Rows (cold: kernels in memory only, nothing from the disk cache):
 * baseline: one evaluation of the door (railfem.models.receptance) at the dataset geometry,
@@ -31,10 +44,26 @@ def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--skip-sbb", action="store_true")
+    p.add_argument("--commands", action="store_true")
+    p.add_argument("--old", type=Path, default=None, metavar="SRC")
+    p.add_argument("--cross", type=int, default=0, metavar="SEEDS")
+    p.add_argument("--step", type=int, default=2)
+    p.add_argument("--kernel", action="store_true")
     p.add_argument("--out", type=Path,
                    default=Path(__file__).resolve().parent / "results" / "results_fit.txt")
+    p.add_argument("--kernel-child", nargs=3, default=None, help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     limit_threads(1)
+    if args.kernel_child:
+        kernel_child(args.kernel_child[0], args.kernel_child[1], int(args.kernel_child[2]))
+        return
+    if args.commands or args.cross or args.kernel:
+        name, lines = (("commands", command_timings(args.old)) if args.commands
+                       else ("kernel", kernel_paths()) if args.kernel
+                       else ("cross", cross_study(args.cross, args.step)))
+        sys.stdout.write("\n".join(lines) + "\n")
+        replace_section(args.out, name, lines)
+        return
     import logging
 
     import numpy as np
@@ -100,7 +129,183 @@ def main(argv=None):
         lines.append(f"{name:48s} {size:34s} {sec:10.3f} {sec / base:8.3f}")
     text = "\n".join(lines) + "\n"
     sys.stdout.write(text)
-    args.out.write_text(text)
+    old = args.out.read_text() if args.out.exists() else ""
+    keep = old[old.index("\n## "):] if "\n## " in old else ""  # the other sections
+    args.out.write_text(text + keep)
+
+
+DATASET = SHARED / "datasets/practice_site_b"
+
+
+def run_command(src: Path | None, cache: Path, out: Path) -> tuple[float, float]:
+    """(wall, CPU) seconds of ``railfem fit DATASET`` with the code of ``src`` (None: the
+    installed one) and the kernel cache ``cache``."""
+    import os
+    import resource
+    import subprocess
+
+    env = dict(os.environ, RAILFEM_CACHE=str(cache))
+    if src is not None:
+        env["PYTHONPATH"] = str(src)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    t = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "railfem.cli", "-q", "fit", str(DATASET), "--out",
+                    str(out)], env=env, check=True, capture_output=True)
+    wall = time.perf_counter() - t
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu
+
+
+def command_timings(old: Path | None) -> list[str]:
+    """Cold and warm ``railfem fit`` on practice_site_b, new (and ``old``) code."""
+    import json
+
+    meta = json.loads((DATASET / "meta.json").read_text())
+    lines = [f"railfem fit {DATASET.name} --out DIR   ({len(meta['hammer_positions_m'])} "
+             "positions, head + foot, 69 frequencies, wfe-discrete, 5 base parameters)"]
+    lines += machine_lines(1)
+    lines.append(f"  {'code':46s} {'run':5s} {'wall (s)':>9s} {'CPU (s)':>9s} {'ratio':>7s}")
+    got = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for label, src in (("old", old), ("new", None)):
+            if label == "old" and old is None:
+                continue
+            cache = Path(tmp) / f"cache-{label}"
+            for run in ("cold", "warm"):
+                got[label, run] = run_command(src, cache, Path(tmp) / f"out-{label}-{run}")
+                doc = json.loads((Path(tmp) / f"out-{label}-{run}" / "fit.json").read_text())
+                disc = doc.get("model_form_discrepancy", {}).get("method", "none (old code)")
+        for (label, run), (wall, cpu) in got.items():
+            ref = got.get(("old", run))
+            ratio = f"{wall / ref[0]:7.2f}" if ref else f"{'-':>7s}"
+            what = ("new: discrepancy 'ensemble' (default)" if label == "new"
+                    else f"old: {old}")
+            lines.append(f"  {what:46s} {run:5s} {wall:9.2f} {cpu:9.2f} {ratio}")
+    lines.append(f"  (ratio: wall new / old in this session; last fit.json discrepancy: {disc})")
+    return lines
+
+
+def cross_study(n_seeds: int, step: int) -> list[str]:
+    """Blind fits of cross-model clean data with and without the discrepancy."""
+    import importlib
+
+    import numpy as np
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository
+    from benchmarks.blind import generators as g
+
+    F = importlib.import_module("railfem.identify.fit")
+    f = g.frequencies(low=50.0, high=4000.0)[::step]
+    names = ("kp", "eta_p", "kb", "eta_b", "eta_r")
+    lines = [f"blind cross-model fits: dataset('none', seed, model='wfe-discrete', "
+             f"form='cross'), {len(f)} lines 50-4000 Hz, 29 positions, 5 % noise; "
+             "fit(n_starts=2, workers=1, profiles=())"]
+    lines += machine_lines(1)
+    half = {d: {n: [] for n in names} for d in ("ensemble", None)}
+    inside = {d: {n: 0 for n in names} for d in ("ensemble", None)}
+    all_in = {"ensemble": 0, None: 0}
+    fwd = None
+    for seed in range(n_seeds):
+        (meas,) = g.dataset("none", seed, f=f, model="wfe-discrete", form="cross")
+        if fwd is None:
+            fwd = F.prepare(meas, "wfe-discrete", parameters=names, base=None, bounds=None,
+                            use=None, cache=False, forward=None, target_options=None)[0]
+        for d in ("ensemble", None):
+            t = time.perf_counter()
+            res = F.fit(meas, forward=fwd, n_starts=2, workers=1, profiles=(),
+                        discrepancy=d)
+            row = []
+            for n in names:
+                p = res.parameter(n)
+                ok = p["ci95"][0] <= g.TRUTH[n] <= p["ci95"][1]
+                inside[d][n] += ok
+                half[d][n].append(np.log10(p["ci95"][1] / p["ci95"][0]) / 2)
+                row.append(f"{n} {p['value'] / g.TRUTH[n] - 1:+.1%}{'' if ok else ' OUT'}")
+            all_in[d] += all(p["ci95"][0] <= g.TRUTH[p["name"]] <= p["ci95"][1]
+                             for p in res.parameters)
+            lines.append(f"  seed {seed} {str(d):8s} {time.perf_counter() - t:6.1f} s  "
+                         + ", ".join(row))
+    for d in ("ensemble", None):
+        lines.append(f"  discrepancy {str(d):8s}: all five inside in {all_in[d]}/{n_seeds}; "
+                     "inside per parameter " + ", ".join(f"{n} {inside[d][n]}/{n_seeds}"
+                                                          for n in names))
+        lines.append(f"  {'':21s} median 95 % half-width (decades) "
+                     + ", ".join(f"{n} {np.median(half[d][n]):.3f}" for n in names))
+    return lines
+
+
+def kernel_paths(n_f: int = 12) -> list[str]:
+    """The WFE kernel at a second rail loss factor: through the fitter's path
+    (railfem.models.discrete_kernel of the spec at that eta_r, as SpectralEngine builds
+    it) and through railfem.track.wfe.discrete_kernel(eta_r=) on the first kernel's
+    section, each in a fresh process (kernel_child) after a first kernel at eta_r = 0.01;
+    CPU seconds and the largest difference of the two kernels."""
+    import subprocess
+
+    import numpy as np
+
+    got = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for path in ("fitter", "eta_r"):
+            out = Path(tmp) / f"{path}.npy"
+            r = subprocess.run([sys.executable, __file__, "--kernel-child", path, str(out),
+                                str(n_f)], capture_output=True, text=True, check=True)
+            got[path] = [float(v) for v in r.stdout.split()] + [np.load(out)]
+    diff = np.abs(got["fitter"][2] - got["eta_r"][2]).max() / np.abs(got["eta_r"][2]).max()
+    lines = [f"WFE kernel (wfe-discrete, point supports, 29 positions, {n_f} frequencies "
+             "100-5000 Hz) at eta_r = 0.02 after one at 0.01, CPU seconds"]
+    lines += machine_lines(1)
+    lines.append(f"  first kernel (eta_r = 0.01)                        {got['fitter'][0]:8.2f}")
+    lines.append(f"  second, the fitter's path (models.discrete_kernel) {got['fitter'][1]:8.2f}")
+    lines.append(f"  second, track.wfe.discrete_kernel(eta_r=)          {got['eta_r'][1]:8.2f}")
+    lines.append(f"  largest relative difference of the two kernels     {diff:8.1e}")
+    return lines
+
+
+def kernel_child(path: str, out: str, n_f: int) -> None:
+    """One process of kernel_paths: prints (first kernel, second kernel) CPU seconds."""
+    import numpy as np
+
+    from railfem import models
+    from railfem.identify.base import default_base
+    from railfem.track import wfe
+
+    spec = default_base("wfe-discrete")
+    xs, _, hx = models.hammer_x(spec)
+    f = np.geomspace(100, 5000, n_f)
+    first = spec.replace(eta_r=0.01)
+    t = time.process_time()
+    models.discrete_kernel(first, f, hx, [xs], outputs=("head",), cache=False)[0]
+    t1 = time.process_time() - t
+    t = time.process_time()
+    if path == "fitter":
+        k = models.discrete_kernel(spec.replace(eta_r=0.02), f, hx, [xs], outputs=("head",),
+                                   cache=False)[0]
+    else:
+        n, lay = first.numerics, first.layout()
+        rail = models.wfe_rail(first.rail, n.patch_width, n.n_foot_springs, n.foot_rule)
+        c = np.round((xs + hx) / (2 * spec.spacing)) * spec.spacing  # as models centres
+        uf, ur = np.unique(np.round(hx - c, 10)), np.unique(np.round(xs - c, 10))
+        k = wfe.discrete_kernel(rail.guide, rail.springs, lay.springs().x, f,
+                                load=rail.loads["head"], outputs=[rail.outputs["head"]],
+                                force_x=uf, response_x=ur,
+                                spring_length=lay.row_length, load_length=n.load_length,
+                                n_waves=n.n_waves, tail=n.tail, eta_r=0.02)
+    sys.stdout.write(f"{t1} {time.process_time() - t}\n")
+    np.save(out, k.ss)
+
+
+def replace_section(path: Path, name: str, lines: list[str]) -> None:
+    """Write ``lines`` as the section ``name`` of the results file (replacing it)."""
+    head, tail = f"## {name}", "## end " + name
+    text = path.read_text() if path.exists() else ""
+    if head in text:
+        a, rest = text.split(head, 1)
+        text = a + rest.split(tail, 1)[1].lstrip("\n")
+    cmd = "python benchmarks/bench_fit.py " + " ".join(sys.argv[1:])
+    path.write_text(text.rstrip("\n") + "\n\n" + "\n".join([head, f"# {cmd}", *lines, tail])
+                    + "\n")
 
 
 if __name__ == "__main__":

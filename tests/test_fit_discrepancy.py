@@ -93,7 +93,7 @@ def test_rail_loss_estimate_is_the_minimum_of_its_reported_profile(cross_fits):
 
 
 def test_fit_json_and_summary_state_the_discrepancy(cross_fits):
-    from railfem.jobs.fit import discrepancy_line, fit_summary
+    from railfem.jobs.fit import discrepancy_bands, discrepancy_line, fit_summary
 
     with_d, without = cross_fits
     doc = with_d.to_dict()["model_form_discrepancy"]
@@ -102,21 +102,26 @@ def test_fit_json_and_summary_state_the_discrepancy(cross_fits):
     assert "straight edges" in line and "transfer RMS" in line
     assert "none" in discrepancy_line(without.discrepancy)
     assert line in fit_summary(with_d, "data")
+    per_band = discrepancy_bands(with_d.discrepancy, with_d.target.bands.nominal)  # the plot
+    assert set(per_band) == {"point", "transfer", "tdr"}
+    assert np.isfinite(per_band["point"]).sum() == len(doc["bands_hz"])
+    assert discrepancy_bands(without.discrepancy, with_d.target.bands.nominal) == {}
 
 
 @pytest.mark.slow
 def test_cross_model_coverage_over_seeds():
-    """Ten seeds on the full ninth-octave grid (50-5000 Hz): all five base parameters
-    inside their intervals in at least 9 of 10 runs with the discrepancy; without it, kp
-    outside in most."""
-    f = g.frequencies()
+    """Ten seeds on every other line of 50-4000 Hz (30 lines): all five base parameters
+    inside their intervals in at least 9 of 10 runs with the discrepancy (measured 9/10,
+    eta_b out once; benchmarks/results/results_fit.txt, section "cross"); without it kp
+    outside in at least 8 (measured 10/10)."""
+    f = g.frequencies(low=50.0, high=4000.0)[::2]
     fwd, hits, misses = None, 0, 0
     for seed in range(10):
         meas = _cross(seed, f)
         fwd = fwd or _forward(meas)
         hits += all(_inside(_fit(meas, fwd, "ensemble")).values())
         misses += not _inside(_fit(meas, fwd, None))["kp"]
-    assert hits >= 9 and misses >= 6, (hits, misses)
+    assert hits >= 9 and misses >= 8, (hits, misses)
 
 
 def test_bad_discrepancy_options_are_named():

@@ -172,6 +172,22 @@ def discrepancy_line(d: dict | None) -> str:
             f"per-band s_d in fit.json): " + "; ".join(parts))
 
 
+def discrepancy_bands(d: dict | None, nominal) -> dict:
+    """{quantity: s_d (dB) on the bands ``nominal`` (Hz), NaN where not estimated} of a
+    fit's discrepancy (FitResult.discrepancy)."""
+    if not d or not d.get("sd_db"):
+        return {}
+    centres = np.asarray(d["bands_hz"], dtype=float)
+    out = {}
+    for q, sd in d["sd_db"].items():
+        vals = []
+        for f in np.asarray(nominal, dtype=float):
+            k = int(np.argmin(np.abs(np.log(centres / f))))
+            vals.append(sd[k] if abs(np.log(centres[k] / f)) < 0.05 else np.nan)
+        out[q] = vals
+    return out
+
+
 def _json(o):
     if isinstance(o, np.ndarray):
         return o.tolist()
@@ -274,6 +290,9 @@ def write_fit(out: Path, res, *, data_label: str = "") -> dict:
         for s in t.outputs:
             cols.append([np.nan if v is None else v for v in table[s]])
             labels.append(f"{quantity} ({s})")
+    for quantity, sd in discrepancy_bands(res.discrepancy, t.bands.nominal).items():
+        cols.append(sd)
+        labels.append(f"{quantity}: model-form discrepancy s_d")
     ax = plotting.plot_band_residual(t.bands.nominal, np.array(cols).T, labels,
                                      ylabel="Residual RMS per band (dB)")
     ax.set_title(f"Residual per band, {res.model} fit{of}")
