@@ -347,8 +347,11 @@ def main(argv=None):
         Path(a.json).write_text(json.dumps(res, indent=1, default=float))
     from lateral_waves_report import markdown  # the tables (same folder)
 
-    cmd = "OPENBLAS_NUM_THREADS=1 python benchmarks/sbb/lateral_waves.py " + " ".join(
-        sys.argv[1:] if argv is None else argv)
+    args = list(sys.argv[1:] if argv is None else argv)
+    if a.from_json:  # the table is the full run's: say how to redo that
+        i = args.index("--from-json")
+        del args[i:i + 2]
+    cmd = "OPENBLAS_NUM_THREADS=1 python benchmarks/sbb/lateral_waves.py " + " ".join(args)
     Path(a.out).write_text(markdown(res, cmd.strip()))
 
 
