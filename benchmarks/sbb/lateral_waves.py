@@ -335,6 +335,9 @@ def main(argv=None):
     p.add_argument("--json", default="")
     p.add_argument("--quick", action="store_true", help="base and k_roll variants only")
     p.add_argument("--from-json", default="", help="write the table from an earlier --json")
+    p.add_argument("--periodic", action="store_true", help="also the EN 15461 lateral decay "
+                   "rate of the discrete-support track (wfe-periodic), base and with the "
+                   "pad's roll stiffness")
     a = p.parse_args(argv)
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
     if a.from_json:  # the closed form is cheap: recomputed
@@ -343,6 +346,8 @@ def main(argv=None):
                                                        res["measured"].items()})
     else:
         res = run(a.quick)
+        if a.periodic:
+            res["periodic"] = periodic_check()
     if a.json:
         Path(a.json).write_text(json.dumps(res, indent=1, default=float))
     from lateral_waves_report import markdown  # the tables (same folder)
@@ -351,8 +356,25 @@ def main(argv=None):
     if a.from_json:  # the table is the full run's: say how to redo that
         i = args.index("--from-json")
         del args[i:i + 2]
+        if res.get("periodic") and "--periodic" not in args:
+            args.append("--periodic")
     cmd = "OPENBLAS_NUM_THREADS=1 python benchmarks/sbb/lateral_waves.py " + " ".join(args)
     Path(a.out).write_text(markdown(res, cmd.strip()))
+
+
+def periodic_check(bands=(100.0, 315.0)) -> dict:
+    """EN 15461 lateral decay rate (dB/m) of the discrete-support track as diagnose_sbb.py
+    --lateral has it (wfe-periodic, 0.15 m pad in one row, supports 'zy'), base and with
+    the pad's roll stiffness (grip_spec): {tag: {band: value}}."""
+    spec = rf.preset("site", model="wfe-periodic", pad_length=0.15, n_rows=1,
+                     support_directions="zy").replace(eta_r=ETA_R)
+    f = iec61260.ninth_octave_grid(*bands)
+    out = {}
+    for tag, s in (("base", spec), ("grip", grip_spec(spec))):
+        r = models.decay_rate(s, f, output="head_lateral")
+        out[tag] = {float(c): float(d) for c, d in zip(r.frequency, r.decay_rate)}
+        log.info("periodic %s: %s", tag, out[tag])
+    return out
 
 
 def run(quick=False) -> dict:

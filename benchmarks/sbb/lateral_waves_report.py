@@ -72,6 +72,11 @@ def find(sweep, prefix):
     return next((d for d in sweep if d["name"].startswith(prefix)), None)
 
 
+def _rms_db(model, meas, bands) -> float:
+    d = [10 * math.log10(model[b] / meas[b]["median"]) for b in bands]
+    return math.sqrt(sum(x * x for x in d) / len(d))
+
+
 def conclusion(res, bands) -> list:
     meas = _bands(res["measured"])
     base = res["base_bands"]
@@ -134,7 +139,14 @@ def conclusion(res, bands) -> list:
         f"rate becomes {row(gw)} dB/m against the measured "
         f"{row({b: meas[b]['median'] for b in bands})}: within the measured range at "
         "100–160 Hz, low at 200 Hz, high at 315 Hz, with the measured drop above ~200 Hz "
-        "(the cut-on). The closed form asks for a total roll restraint of "
+        "(the cut-on)."
+        + (f" On discrete supports (wfe-periodic, as the diagnosis): "
+           f"{row(_bands(res['periodic']['grip']))} dB/m, base "
+           f"{row(_bands(res['periodic']['base']))}." if res.get("periodic") else "")
+        + f" RMS of 10 lg(model / measured median) over these six bands: base "
+        f"{_rms_db(whole, meas, bands):.1f} dB, with the pad's roll stiffness "
+        f"{_rms_db(gw, meas, bands):.1f} dB."
+        + " The closed form asks for a total roll restraint of "
         f"{min(req) / 1e6:.2f}–{max(req) / 1e6:.2f} MN m/rad per support for the measured "
         "100–200 Hz values (rising with frequency), the same order as the pad's own roll "
         "stiffness: physical. k_roll 0.6–3 MN m/rad spans the measured rows (section 3).",
@@ -217,6 +229,17 @@ def markdown(res, command) -> str:
           f"foot width W = {cf['W'] * 1e3:.0f} mm turning on a sleeper that does not roll "
           "with the foot.", ""]
     L += sweep_rows(res["sweep"], meas, BANDS + CONTEXT[:2])
+    if res.get("periodic"):
+        per = {t: _bands(v) for t, v in res["periodic"].items()}
+        pb = sorted(per["base"])
+        L += ["", "Discrete supports (wfe-periodic as diagnose_sbb.py --lateral: 0.15 m pad in "
+              "one row, supports 'zy', 'r' with k_roll), EN 15461 lateral decay rate (dB/m):",
+              "", "| variant | " + " | ".join(f"{b:g} Hz" for b in pb) + " |",
+              "|---|" + "---|" * len(pb),
+              "| measured | " + " | ".join(f"{meas[b]['median']:.1f}" for b in pb) + " |",
+              "| base, periodic | " + " | ".join(f"{per['base'][b]:.1f}" for b in pb) + " |",
+              f"| k_roll {cf['pad_roll'] / 1e6:.2f} MN m/rad (η 0.25), periodic | "
+              + " | ".join(f"{per['grip'][b]:.1f}" for b in pb) + " |"]
     L += ["", "## 4. The carrying wave in closed form: the rail rocking about its foot", "",
           "With the foot held laterally (v_s = −z_s θ), the roll θ(x) of the rail obeys "
           "B θ'''' − GJ θ'' + (k_θ − ω² J_f) θ = 0 per metre, B = E I_z z_s² + E Γ "
