@@ -49,6 +49,7 @@ def main(argv=None):
     p.add_argument("--cross", type=int, default=0, metavar="SEEDS")
     p.add_argument("--step", type=int, default=2)
     p.add_argument("--kernel", action="store_true")
+    p.add_argument("--agree", default=None, metavar="MODEL")
     p.add_argument("--out", type=Path,
                    default=Path(__file__).resolve().parent / "results" / "results_fit.txt")
     p.add_argument("--kernel-child", nargs=3, default=None, help=argparse.SUPPRESS)
@@ -57,9 +58,10 @@ def main(argv=None):
     if args.kernel_child:
         kernel_child(args.kernel_child[0], args.kernel_child[1], int(args.kernel_child[2]))
         return
-    if args.commands or args.cross or args.kernel:
+    if args.commands or args.cross or args.kernel or args.agree:
         name, lines = (("commands", command_timings(args.old)) if args.commands
                        else ("kernel", kernel_paths()) if args.kernel
+                       else (f"agreement {args.agree}", agreement(args.agree)) if args.agree
                        else ("cross", cross_study(args.cross, args.step)))
         sys.stdout.write("\n".join(lines) + "\n")
         replace_section(args.out, name, lines)
@@ -294,6 +296,41 @@ def kernel_child(path: str, out: str, n_f: int) -> None:
                                 n_waves=n.n_waves, tail=n.tail, eta_r=0.02)
     sys.stdout.write(f"{t1} {time.process_time() - t}\n")
     np.save(out, k.ss)
+
+
+def agreement(model: str) -> list[str]:
+    """fit and diagnose (default base and discrepancy, one candidate) on seed 0 of clean
+    cross-model data (20 lines of 50-4000 Hz): their base estimates and 95 % intervals."""
+    import importlib
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # the repository
+    from benchmarks.blind import generators as g
+    from railfem.diagnosis import diagnose
+
+    F = importlib.import_module("railfem.identify.fit")
+    f = g.frequencies(low=50.0, high=4000.0)[::3]
+    (meas,) = g.dataset("none", 0, f=f, model=model, form="cross")
+    t = time.perf_counter()
+    r = F.fit(meas, model, n_starts=2, workers=1, profiles=())
+    t_fit = time.perf_counter() - t
+    t = time.perf_counter()
+    d = diagnose([meas], model=model, effects=("noise_floor",), n_starts=2)
+    t_diag = time.perf_counter() - t
+    lines = [f"fit vs diagnose, {model}, dataset('none', 0, form='cross'), {len(f)} lines: "
+             f"fit {t_fit:.0f} s, diagnose {t_diag:.0f} s (verdict {d.verdict})"]
+    lines += machine_lines(1)
+    base = {p["name"]: p for p in d.base.parameters()}
+    for n in ("kp", "eta_p", "kb", "eta_b"):
+        a, b = r.parameter(n), base[n]
+        each = (a["ci95"][0] <= b["value"] <= a["ci95"][1]
+                and b["ci95"][0] <= a["value"] <= b["ci95"][1])
+        lines.append(f"  {n:6s} fit {a['value']:.4g} [{a['ci95'][0]:.4g}, {a['ci95'][1]:.4g}]"
+                     f"   diagnose {b['value']:.4g} [{b['ci95'][0]:.4g}, {b['ci95'][1]:.4g}]"
+                     f"   truth {g.TRUTH[n]:.4g}   each inside the other's interval: {each}")
+    a = r.parameter("eta_r")
+    lines.append(f"  eta_r  fit {a['value']:.4g} [{a['ci95'][0]:.4g}, {a['ci95'][1]:.4g}]"
+                 f"   diagnose {d.base.eta_r:.4g}   truth {g.TRUTH['eta_r']:.4g}")
+    return lines
 
 
 def replace_section(path: Path, name: str, lines: list[str]) -> None:

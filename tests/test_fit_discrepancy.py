@@ -124,6 +124,24 @@ def test_cross_model_coverage_over_seeds():
     assert hits >= 9 and misses >= 8, (hits, misses)
 
 
+def test_fit_and_diagnose_agree_on_the_base_within_their_intervals():
+    """The same cross-model data (beam form: section constants from a straight 7.5 mm
+    mesh) through ``fit`` and ``diagnose``, both with their default base and discrepancy:
+    the 95 % intervals of the four support parameters overlap and hold the truth (on the
+    WFE form, seed 0, 20 lines, measured: each estimate inside the other's interval)."""
+    from railfem.diagnosis import diagnose
+
+    meas = g.dataset("none", 0, f=SMALL_F, form="cross")[0]
+    fitted = F.fit(meas, "timoshenko-discrete", n_starts=2, workers=1, profiles=())
+    base = {p["name"]: p for p in diagnose([meas], model="timoshenko-discrete",
+                                           effects=("noise_floor",), n_starts=2)
+            .base.parameters()}
+    for n in ("kp", "eta_p", "kb", "eta_b"):
+        a, b = fitted.parameter(n)["ci95"], base[n]["ci95"]
+        assert max(a[0], b[0]) <= min(a[1], b[1]), (n, a, b)
+        assert a[0] <= g.TRUTH[n] <= a[1] and b[0] <= g.TRUTH[n] <= b[1], (n, a, b)
+
+
 def test_bad_discrepancy_options_are_named():
     meas = g.measurement(*g.clean(g.truth_spec(), SMALL_F[:6]), SMALL_F[:6])
     with pytest.raises(ValueError, match="discrepancy 'gaussian'"):
