@@ -29,6 +29,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from .semiseparable import chain_plan, chain_solve
+
 
 def unique_separations(sep: np.ndarray, decimals: int = 12):
     """Distinct values of ``sep`` and the index of each entry. Values are rounded to 1e-12 m,
@@ -186,6 +188,15 @@ def _solve_mirrored(plan, ssr, a, b, rhs):
     return F
 
 
+def _solve_dense(plan, ss_flat, ssr, a, b, rhs):
+    """F of (diag(a) + b alpha_ss) F = rhs: by mirror halves when ``plan``, else whole."""
+    if plan is not None:
+        return _solve_mirrored(plan, ssr, a, b, rhs)
+    M = b[:, None] * ssr[ss_flat]
+    M[np.diag_indices(len(a))] += a
+    return np.linalg.solve(M, rhs)
+
+
 def spring_families(ss: np.ndarray, tol: float = 1e-12) -> list[np.ndarray]:
     """The springs of a set (indices into n_p) grouped by the symmetry family of the rail
     they act on: the free-rail receptance between springs of different families (e.g. a
@@ -221,7 +232,13 @@ def _family_kernel(kernel: DiscreteKernel, cols: np.ndarray) -> DiscreteKernel:
                           rP_index=kernel.rP_index)
 
 
-def couple_discrete(kernel: DiscreteKernel, stiffness) -> np.ndarray:
+#: springs (n_s n_p) from which a long uniform layout is solved as a chain of waves
+#: (railfem.track.semiseparable) rather than densely: below, the dense mirrored solve is
+#: as fast and keeps results bit for bit
+CHAIN_MIN_SPRINGS = 1200
+
+
+def couple_discrete(kernel: DiscreteKernel, stiffness, method: str = "auto") -> np.ndarray:
     """Receptance (nf, n_out, n_rx, n_fx) of the supported rail (m/N).
 
     stiffness: (nf, n_s) dynamic stiffness of each spring set (N/m, complex; one support or
@@ -231,7 +248,13 @@ def couple_discrete(kernel: DiscreteKernel, stiffness) -> np.ndarray:
     A layout symmetric about x = 0 with symmetric stiffness (any uniform track) is solved
     as its even and odd parts; springs on different symmetry families of the rail
     (``spring_families``: a lateral load loads both) as separate systems.
+    method: 'dense', 'chain' (identical equally spaced supports as a sparse chain of
+    waves, railfem.track.semiseparable; equal to the dense solve to round-off, other
+    layouts and frequencies whose waves' realisation misses its tolerance solved densely)
+    or 'auto' (the chain from CHAIN_MIN_SPRINGS springs).
     """
+    if method not in ("auto", "dense", "chain"):
+        raise ValueError(f"method = {method!r}: give 'auto', 'dense' or 'chain'")
     n_s, n_p, n_rx, n_fx = kernel.shape
     nf = len(kernel.frequency)
     K_sets = _check_stiffness(stiffness, nf, n_s, kernel.spring_direction)
@@ -239,33 +262,37 @@ def couple_discrete(kernel: DiscreteKernel, stiffness) -> np.ndarray:
     if len(groups) > 1:
         n_out = kernel.rs.shape[2]
         direct = kernel.rP[:, kernel.rP_index].transpose(0, 3, 1, 2)  # (nf, o, rx, fx)
-        return direct - sum(direct - couple_discrete(_family_kernel(kernel, g), K_sets)
+        return direct - sum(direct - couple_discrete(_family_kernel(kernel, g), K_sets,
+                                                     method)
                             for g in groups)
     n = n_s * n_p
+    chain = None
+    if method == "chain" or (method == "auto" and n >= CHAIN_MIN_SPRINGS):
+        chain = chain_plan(kernel.spring_x, kernel.ss_index, n_p)
     # flat gather indices into (n_u * n_p * n_p) etc., built once per call
     pp = np.arange(n_p)
-    ss_flat = ((kernel.ss_index[:, None, :, None] * n_p + pp[None, :, None, None]) * n_p
-               + pp[None, None, None, :]).reshape(n, n)
+    ss_diag = ((np.diag(kernel.ss_index)[:, None] * n_p + pp) * n_p + pp).ravel()
+    dense = {}  # the dense solve's gather and mirror plan, built when first needed
     sP_flat = (kernel.sP_index[:, None, :] * n_p + pp[None, :, None]).reshape(n, n_fx)
     n_out = kernel.rs.shape[2]
     oo = np.arange(n_out)
     rs_flat = ((kernel.rs_index[None, :, :, None] * n_out + oo[:, None, None, None]) * n_p
                + pp[None, None, None, :]).reshape(n_out * n_rx, n)
     rP_flat = kernel.rP_index[None, :, :] * n_out + oo[:, None, None]
-    plan = _mirror_plan(kernel, K_sets, ss_flat)
     out = np.empty((nf, n_out, n_rx, n_fx), dtype=complex)
-    diag = np.arange(n)
     for i in range(nf):
         ssr = kernel.ss[i].ravel()
         B = kernel.sP[i].ravel()[sP_flat]
         K = _spring_stiffness(K_sets[i], kernel.spring_weight, kernel.spring_direction)
-        a, b = _row_scaling(K, ssr[ss_flat[diag, diag]])
-        if plan is not None:
-            F = _solve_mirrored(plan, ssr, a, b, b[:, None] * B)
-        else:
-            M = b[:, None] * ssr[ss_flat]
-            M[diag, diag] += a
-            F = np.linalg.solve(M, b[:, None] * B)
+        a, b = _row_scaling(K, ssr[ss_diag])
+        F = None if chain is None else chain_solve(chain, kernel.ss[i], a, b, b[:, None] * B)
+        if F is None:
+            if not dense:
+                dense["ss"] = ((kernel.ss_index[:, None, :, None] * n_p
+                                + pp[None, :, None, None]) * n_p
+                               + pp[None, None, None, :]).reshape(n, n)
+                dense["plan"] = _mirror_plan(kernel, K_sets, dense["ss"])
+            F = _solve_dense(dense["plan"], dense["ss"], ssr, a, b, b[:, None] * B)
         G = kernel.rs[i].ravel()[rs_flat]
         out[i] = kernel.rP[i].ravel()[rP_flat] - (G @ F).reshape(n_out, n_rx, n_fx)
     return out
