@@ -388,6 +388,10 @@ def couple_periodic(kernel: PeriodicKernel, stiffness) -> np.ndarray:
     return out
 
 
+#: working memory of SupportUpdate.receptance per block of frequencies (bytes)
+WORK_BYTES = 64e6
+
+
 class SupportUpdate:
     """A uniform discrete track (``kernel``, re-centred on each response-force pair as
     railfem.models does) with some supports' stiffness changed, by a low-rank (Woodbury)
@@ -458,6 +462,7 @@ class SupportUpdate:
                 self.GV[i, :, :, k0:k1] = (G[:, :, R] + ms * G[:, :, JR]) @ V
                 self.VB[i, k0:k1] = Vw @ ((B[R] + p["sg"][:, None] * B[JR]) / 2)
                 k0 = k1
+        self._rows_key, self._rows = None, None  # the last _rows_cols
         self._maps = []  # per part: position of each spring in R and in JR (-1: absent)
         for p in plan:
             pr, pj = np.full(n, -1), np.full(n, -1)
@@ -469,26 +474,35 @@ class SupportUpdate:
     def nbytes(self) -> int:
         """Memory held (bytes)."""
         return int(sum(v.nbytes + w.nbytes for v, w in zip(self.V, self.Vw))
-                   + self.GV.nbytes + self.VB.nbytes)
+                   + self.GV.nbytes + self.VB.nbytes
+                   + (0 if self._rows is None else sum(x.nbytes for x in self._rows)))
 
     @property
     def springs_per_support(self) -> int:
         return self.n_rows * self.n_p
 
-    def _rows_cols(self, i: int, U: np.ndarray):
-        """Rows U of V (u, n) and columns U of V^-1 W (n, u), in the full spring space."""
+    def _rows_cols(self, U: np.ndarray):
+        """Rows U of V (nf, u, n) and columns U of V^-1 W (nf, n, u), in the full spring
+        space, at every frequency; the last U's are kept (a fit asks for the same supports
+        call after call)."""
+        key = U.tobytes()
+        if self._rows_key == key:
+            return self._rows
         rows, cols = [], []
         for j, p in enumerate(self.parts):
             pr, pj = self._maps[j]
             a, b = pr[U], pj[U]
             ms = np.where(b >= 0, (p["m"] * p["sg"])[np.maximum(b, 0)], 0.0)
             sg = np.where(b >= 0, p["sg"][np.maximum(b, 0)], 0.0)
-            V, Vw = self.V[j][i], self.Vw[j][i]
-            rows.append(np.where(a[:, None] >= 0, V[np.maximum(a, 0)], 0.0)
-                        + ms[:, None] * V[np.maximum(b, 0)])
-            cols.append((np.where(a[None, :] >= 0, Vw[:, np.maximum(a, 0)], 0.0)
-                         + sg[None, :] * Vw[:, np.maximum(b, 0)]) / 2)
-        return np.concatenate(rows, axis=1), np.concatenate(cols, axis=0)
+            V, Vw = self.V[j], self.Vw[j]
+            rows.append(np.where(a[None, :, None] >= 0, V[:, np.maximum(a, 0)], 0.0)
+                        + ms[None, :, None] * V[:, np.maximum(b, 0)])
+            cols.append((np.where(a[None, None, :] >= 0, Vw[:, :, np.maximum(a, 0)], 0.0)
+                         + sg[None, None, :] * Vw[:, :, np.maximum(b, 0)]) / 2)
+        self._rows_key, self._rows = None, None  # the old pair freed before the new one
+        self._rows = (np.concatenate(rows, axis=2), np.concatenate(cols, axis=1))
+        self._rows_key = key
+        return self._rows
 
     def _gather(self, indices, pairs):
         """The kernel springs the supports ``indices`` take over the pairs ``pairs`` (their
@@ -502,13 +516,16 @@ class SupportUpdate:
         U, pos = np.unique(sp, return_inverse=True)
         return U, pos.reshape(sp.shape), ok
 
-    def receptance(self, K, k_dev, indices, gradient: bool = False, pairs=None):
+    def receptance(self, K, k_dev, indices, gradient: bool = False, pairs=None,
+                   uniform: bool = False):
         """(nf, n_out, n_pair) receptance with the supports ``indices`` at dynamic
         stiffness k_dev (nf, m) and all others at K (nf,) (N/m per support); with
-        ``gradient`` also d receptance / d k_dev, (nf, n_out, n_pair, m). pairs: the
+        ``gradient`` also d receptance / d k_dev, (nf, n_out, n_pair, m), and with
+        ``uniform`` as well d receptance / d K (nf, n_out, n_pair), k_dev held. pairs: the
         pairs wanted (indices; default all). A support at k_dev = K (a factor of one) only
         has its derivative computed: it does not enter the solve (so tangents of many
-        unchanged supports cost little more than the changed ones)."""
+        unchanged supports cost little more than the changed ones). The frequencies are
+        taken in blocks (batched products and solves, a bounded working memory)."""
         K = np.asarray(K, dtype=complex)
         k_dev = np.asarray(k_dev, dtype=complex).reshape(len(K), -1)
         pairs = np.arange(len(self.shift)) if pairs is None else np.asarray(pairs, dtype=int)
@@ -517,40 +534,110 @@ class SupportUpdate:
         wsp = self.w[:k]  # the shares of one support's springs (a uniform pattern)
         act = np.repeat(np.any(k_dev != K[:, None], axis=0), k)
         ia, ip = np.flatnonzero(act), np.flatnonzero(~act)
-        pa, pp_ = pos[:, ia], pos[:, ip]
         nf, n_out = self.direct.shape[:2]
-        n_pair = len(pairs)
+        n_pair, n = len(pairs), self.lam.shape[1]
         u = np.empty((nf, n_out, n_pair), dtype=complex)
         du = np.empty((nf, n_out, n_pair, m_sup), dtype=complex) if gradient else None
-        p = np.arange(n_pair)[:, None]
-        for i in range(nf):
-            Kh = K[i] / (1.0 + K[i] * self.lam[i])
-            GV, VB = self.GV[i][:, pairs], self.VB[i][:, pairs]
-            u0 = self.direct[i][:, pairs] - np.einsum("opn,n,np->op", GV, Kh, VB)
-            Vu, Vc = self._rows_cols(i, U)
-            VK = Vu * Kh
-            MU = VK @ Vc
-            R = (GV * Kh) @ Vc  # (o, pair, u)
-            Q = (VK @ VB).T  # (pair, u)
-            D = ((1.0 / k_dev[i][:, None] - 1.0 / K[i]) / wsp[None, :]).ravel()[None] * ok
-            Da = D[:, ia]
-            C = MU[pa[:, :, None], pa[:, None, :]]
-            a, b = R[:, p, pa], Q[p, pa]  # (o, pair, m_a), (pair, m_a)
-            A = np.eye(len(ia)) + Da[:, :, None] * C
-            y = np.linalg.solve(A, (Da * b)[..., None])[..., 0]
-            u[i] = u0 + np.einsum("opm,pm->op", a, y)
-            if not gradient:
-                continue
-            # du/dD_j = [(I + D C)^-T a]_j (b - C y)_j; for a spring with D_j = 0 the first
-            # factor is a_j - sum_k C_kj D_k w_k (k active) and y_j = 0
-            w = np.linalg.solve(np.swapaxes(A, -1, -2)[None], a[..., None])[..., 0]
-            dD = np.empty((n_out, n_pair, len(act)), dtype=complex)
-            dD[..., ia] = w * (b - (C @ y[..., None])[..., 0])[None]
-            if len(ip):
-                C_ap = MU[pa[:, :, None], pp_[:, None, :]]  # (pair, m_a, m_p)
-                C_pa = MU[pp_[:, :, None], pa[:, None, :]]
-                w_p = R[:, p, pp_] - np.einsum("pkj,pk,opk->opj", C_ap, Da, w)
-                dD[..., ip] = w_p * (Q[p, pp_] - (C_pa @ y[..., None])[..., 0])[None]
-            dk = -1.0 * ok / (k_dev[i][:, None] ** 2 * wsp[None, :]).ravel()[None]
-            du[i] = (dD * dk[None]).reshape(n_out, n_pair, m_sup, k).sum(axis=-1)
+        Vu, Vc = self._rows_cols(U)
+        D = ((1.0 / k_dev[:, :, None] - 1.0 / K[:, None, None])
+             / wsp[None, None, :]).reshape(nf, 1, -1) * ok[None]  # (nf, pair, m k)
+        dk = (-1.0 * ok[None] / (k_dev[:, :, None] ** 2 * wsp[None, None, :])
+              .reshape(nf, 1, -1)) if gradient else None
+        per_f = 16 * (n_pair * (3 * len(ia) ** 2 + 2 * len(ia) * len(ip)
+                                + n_out * (n + 2 * len(U) + 2 * m_sup * k)) + len(U) * n)
+        step = max(1, int(WORK_BYTES // max(per_f, 1)))
+        duK = np.empty((nf, n_out, n_pair), dtype=complex) if gradient and uniform else None
+        # D_j = (1 / k_j - 1 / K) / w_j: d D_j / d K on every spring of the supports
+        dKD = ok[None] / (K[:, None, None] ** 2 * np.tile(wsp, m_sup)[None, None, :])
+        for i0 in range(0, nf, step):
+            f = slice(i0, min(nf, i0 + step))
+            out = self._block(f, K[f], D[f], Vu[f], Vc[f], pairs, pos, ia, ip, gradient,
+                              uniform)
+            u[f] = out[0]
+            if gradient:
+                nb = out[0].shape[0]
+                du[f] = (out[1] * dk[f][:, None]).reshape(nb, n_out, n_pair, m_sup, k).sum(-1)
+            if duK is not None:
+                duK[f] = out[2] + (out[1] * dKD[f][:, None]).sum(-1)
+        if duK is not None:
+            return u, du, duK
         return (u, du) if gradient else u
+
+    def _block(self, f, K, D, Vu, Vc, pairs, pos, ia, ip, gradient, uniform=False):
+        """receptance at the frequencies ``f`` (a slice): (u, d u / d D or None, d u / d K
+        through the uniform coupling, D held, or None). Pairs
+        on the same re-centred supports (equal shift) share their update matrix
+        A = I + D C: one factorisation serves them all, and the tangents' transposed solve
+        comes from it as well (A^-T a = a - C A^-1 D a, C = C^T to round-off)."""
+        nb, n_out, n_pair = len(K), self.direct.shape[1], len(pairs)
+        Kh = K[:, None] / (1.0 + K[:, None] * self.lam[f])  # (nb, n)
+        GK = self.GV[f][:, :, pairs] * Kh[:, None, None, :]  # (nb, o, pair, n)
+        VB = self.VB[f][:, :, pairs]  # (nb, n, pair)
+        u0 = self.direct[f][:, :, pairs] - np.einsum("fopn,fnp->fop", GK, VB)
+        VK = Vu * Kh[:, None, :]
+        MU = VK @ Vc  # (nb, u, u)
+        R = (GK.reshape(nb, n_out * n_pair, -1) @ Vc).reshape(nb, n_out, n_pair, -1)
+        Q = np.swapaxes(VK @ VB, 1, 2)  # (nb, pair, u)
+        p = np.arange(n_pair)[:, None]
+        pa = pos[:, ia]
+        Da = D[:, :, ia]
+        _, rep, grp = np.unique(self.shift[pairs], return_index=True, return_inverse=True)
+        slot = np.array([np.count_nonzero(grp[:j] == grp[j]) for j in range(n_pair)], int)
+        n_g, n_slot, m_a = len(rep), int(slot.max()) + 1 if n_pair else 1, len(ia)
+        pg = pa[rep]
+        C = MU[:, pg[:, :, None], pg[:, None, :]]  # (nb, group, m_a, m_a)
+        Ct = np.swapaxes(C, -1, -2)
+        A = Da[:, rep, :, None] * C
+        A[..., np.arange(m_a), np.arange(m_a)] += 1.0
+        a, b = R[:, :, p, pa], Q[:, p, pa]  # (nb, o, pair, m_a), (nb, pair, m_a)
+        ncol = 1 + (n_out if gradient else 0)
+        rhs = np.zeros((nb, n_g, n_slot, ncol, m_a), dtype=complex)
+        rhs[:, grp, slot, 0] = Da * b
+        if gradient:
+            rhs[:, grp, slot, 1:] = Da[:, :, None] * np.moveaxis(a, 1, 2)
+        z = np.linalg.solve(A, np.swapaxes(rhs.reshape(nb, n_g, n_slot * ncol, m_a), -1, -2))
+        z = np.swapaxes(z, -1, -2).reshape(nb, n_g, n_slot, ncol, m_a)
+        y = z[:, grp, slot, 0]  # (nb, pair, m_a)
+        u = u0 + np.einsum("fopm,fpm->fop", a, y)
+        if not gradient:
+            return u, None, None
+
+        def per_pair(x):  # (nb, group, slot, ...) -> (nb, pair, ...)
+            return x[:, grp, slot]
+
+        # du/dD_j = [(I + D C)^-T a]_j (b - C y)_j; for a spring with D_j = 0 the first
+        # factor is a_j - sum_k C_kj D_k w_k (k active) and y_j = 0
+        zy = z[:, :, :, 0]  # (nb, group, slot, m_a)
+        Cy = per_pair(zy @ Ct)
+        CzA = per_pair((z[:, :, :, 1:].reshape(nb, n_g, n_slot * n_out, m_a) @ Ct)
+                       .reshape(nb, n_g, n_slot, n_out, m_a))
+        w = np.moveaxis(np.moveaxis(a, 1, 2) - CzA, 2, 1)  # (nb, o, pair, m_a)
+        dD = np.empty((nb, n_out, n_pair, pos.shape[1]), dtype=complex)
+        dD[..., ia] = w * (b - Cy)[:, None]
+        if len(ip):
+            pp_ = pos[:, ip]
+            ppg = pp_[rep]
+            C_ap = MU[:, pg[:, :, None], ppg[:, None, :]]
+            C_pa = MU[:, ppg[:, :, None], pg[:, None, :]]  # (nb, group, m_p, m_a)
+            wD = np.zeros((nb, n_g, n_slot, n_out, m_a), dtype=complex)
+            wD[:, grp, slot] = np.moveaxis(w * Da[:, None], 1, 2)
+            m_p = len(ip)
+            wC = per_pair((wD.reshape(nb, n_g, n_slot * n_out, m_a) @ C_ap)
+                          .reshape(nb, n_g, n_slot, n_out, m_p))
+            w_p = R[:, :, p, pp_] - np.moveaxis(wC, 2, 1)
+            Cpy = per_pair(zy @ np.swapaxes(C_pa, -1, -2))
+            dD[..., ip] = w_p * (Q[:, p, pp_] - Cpy)[:, None]
+        if not uniform:
+            return u, dD, None
+        # d/dK with D held: Kh -> h^2 = 1 / (1 + K lam)^2 in u0, C, a and b;
+        # du = du0 + da y + (w D) (db - dC y)
+        h2 = 1.0 / (1.0 + K[:, None] * self.lam[f]) ** 2
+        GH = self.GV[f][:, :, pairs] * h2[:, None, None, :]
+        VH = Vu * h2[:, None, :]
+        dR = (GH.reshape(nb, n_out * n_pair, -1) @ Vc).reshape(nb, n_out, n_pair, -1)
+        dQ = np.swapaxes(VH @ VB, 1, 2)
+        dMU = VH @ Vc
+        dCy = per_pair(zy @ np.swapaxes(dMU[:, pg[:, :, None], pg[:, None, :]], -1, -2))
+        duK = (-np.einsum("fopn,fnp->fop", GH, VB) + np.einsum("fopm,fpm->fop", dR[:, :, p, pa], y)
+               + np.einsum("fopm,fpm->fop", w * Da[:, None], dQ[:, p, pa] - dCy))
+        return u, dD, duK
