@@ -99,9 +99,10 @@ def test_random_support_prior_and_deviations():
 
 
 def test_random_support_closed_form_jacobian_matches_finite_differences():
-    """The refit's Jacobian for the support factors of random_support (closed-form Woodbury
-    derivative of the receptance, then the residual along it) against central differences
-    of the whole residual (every quantity, the prior rows included)."""
+    """The refit's Jacobian for the support factors of random_support and the base support
+    parameters (closed-form Woodbury derivative of the receptance, then the residual along
+    it) against central differences of the whole residual (every quantity, the prior rows
+    included)."""
     from railfem.diagnosis.problem import Problem
 
     data = prepare(g.dataset("random_support", 0, f=SMALL_F))
@@ -112,7 +113,7 @@ def test_random_support_closed_form_jacobian_matches_finite_differences():
     x = np.concatenate([np.log10([400e6, 0.2, 60e6, 1.0]),
                         0.1 * np.random.default_rng(1).standard_normal(len(e.parameters))])
     J = pb.jacobian(x)
-    for i in range(4, len(x)):
+    for i in range(len(x)):
         a, b = x.copy(), x.copy()
         a[i] -= 1e-6
         b[i] += 1e-6

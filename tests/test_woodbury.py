@@ -112,6 +112,21 @@ def test_woodbury_derivatives_against_central_differences(case, name):
         assert np.abs(got - ref).max() < 1e-6 * np.abs(ref).max(), j
 
 
+@pytest.mark.parametrize("name", ["three supports scaled", "one changed, two at the mean"])
+def test_woodbury_uniform_derivative_against_central_differences(case, name):
+    """d receptance / d K of the supports not listed (k_dev held), as the base parameters'
+    tangents use it; the other outputs equal those without it."""
+    spec, kernel, jr, jf, shift, pattern, su = case
+    K, k_dev, idx = stiffness(spec, CASES[name])
+    u, du, duK = su.receptance(K, k_dev, idx, gradient=True, uniform=True)
+    u2, du2 = su.receptance(K, k_dev, idx, gradient=True)
+    assert np.array_equal(u, u2) and np.array_equal(du, du2)
+    h = 1e-4
+    ref = (su.receptance(K * math.exp(h), k_dev, idx)
+           - su.receptance(K * math.exp(-h), k_dev, idx)) / (2 * h)
+    assert np.abs(duK * K[:, None, None] - ref).max() < 1e-5 * np.abs(ref).max()
+
+
 def test_woodbury_with_pads_in_rows():
     """A support spread over rows (pad of finite length): its every row changes."""
     spec = wfe_spec(pad_length=0.15, n_rows=3, n_supports=21)
@@ -182,6 +197,12 @@ def test_evaluator_takes_deviations_on_wfe_discrete_by_the_woodbury_path(record)
             for s in (h, -h))
         ref_t = (ev.receptance(up, record) - ev.receptance(dn, record)) / (2 * h)
         assert np.abs(tan[(2, which)] - ref_t).max() < 1e-5 * np.abs(ref_t).max(), which
+    for name in ("kp", "eta_b"):  # a base parameter moves every support, the voided one too
+        up, dn = (spec.replace(**{name: getattr(spec.support, name) * math.exp(s)})
+                  for s in (h, -h))
+        ref_t = (ev.receptance(up, record) - ev.receptance(dn, record)) / (2 * h)
+        got = tan[("base", name)]
+        assert np.abs(got - ref_t).max() < 1e-5 * np.abs(ref_t).max(), name
 
 
 def test_evaluator_deviations_at_a_shifted_geometry(record):

@@ -105,6 +105,25 @@ def with_margin(spec, sx, fx):
     return spec.replace(n_supports=need) if spec.n_supports < need else spec
 
 
+def base_tangents(spec, w, da, daK, h: float = 1e-6) -> dict:
+    """{('base', name): d receptance / d ln name} of the support parameters kp, eta_p, kb,
+    eta_b of a track with deviating supports, from SupportUpdate's d/dK of the uniform
+    supports (daK) and d/dk of each deviating one (da): each parameter moves both."""
+    uni = spec.replace(deviations=())
+
+    def stiffness(name, f):
+        s = replace(uni.support, **{name: getattr(uni.support, name) * f})
+        return dynamic_stiffness(s, w), np.column_stack(
+            [dynamic_stiffness(d.apply(s), w) for d in spec.deviations])
+
+    out = {}
+    for name in ("kp", "eta_p", "kb", "eta_b"):
+        (Kp, kp), (Km, km) = stiffness(name, math.exp(h)), stiffness(name, math.exp(-h))
+        out[("base", name)] = (daK * ((Kp - Km) / (2 * h))[:, None, None]
+                               + np.einsum("fopj,fj->fop", da, (kp - km) / (2 * h)))
+    return out
+
+
 class Evaluator:
     """receptance(spec, record, shift) -> (nf, n_out, n_pos) m/N at the record's geometry.
 
@@ -230,7 +249,7 @@ class Evaluator:
 
         if not gradient:
             return fit(su.receptance(K, k_dev, idx, pairs=pairs))
-        a, da = su.receptance(K, k_dev, idx, gradient=True, pairs=pairs)
+        a, da, daK = su.receptance(K, k_dev, idx, gradient=True, pairs=pairs, uniform=True)
         h = 1e-7
         tangent = {}
         for j, d in enumerate(spec.deviations):
@@ -238,6 +257,7 @@ class Evaluator:
                 dk = (dynamic_stiffness(replace(d, **{which: getattr(d, which) * math.exp(h)})
                                         .apply(uni.support), w) - k_dev[:, j]) / h
                 tangent[(d.index, which)] = fit(da[..., j] * dk[:, None, None])
+        tangent.update({k: fit(v) for k, v in base_tangents(spec, w, da, daK).items()})
         return fit(a), tangent
 
     def _plain(self, spec, record) -> SpectralCoupling:

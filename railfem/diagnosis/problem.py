@@ -166,9 +166,10 @@ class EffectModel:
 
     def tangents(self, x):
         """({record name: receptance}, {vector index: {record name: d receptance / d ln
-        factor}}) for the support factors of the random effects, from the evaluator's
-        closed-form derivatives (one Woodbury solve for all of them); None where the
-        evaluator has none for the spec."""
+        factor}}) for the support factors of the random effects (and the base support
+        parameters when every effect is such a factor), from the evaluator's closed-form
+        derivatives (one Woodbury solve for all of them); None where the evaluator has
+        none for the spec."""
         tp = self._tangent_parameters()
         if not tp:
             return None
@@ -179,6 +180,11 @@ class EffectModel:
             return None
         tan = {i: {n: sum(got[n][1][(j, which)] for j in ids) for n in got}
                for i, (ids, which) in tp.items()}
+        if all(e.deviation_of is not None for e in self.effects):
+            # the base parameters act through the supports' stiffness alone
+            for i, name in enumerate(BASE):
+                if all(("base", name) in got[n][1] for n in got):
+                    tan[i] = {n: got[n][1][("base", name)] for n in got}
         return {k: v[0] for k, v in got.items()}, tan
 
     def unfitted_tangents(self, x):
