@@ -345,7 +345,8 @@ def main_lateral(a, rows, want, cmd):
                                              for w in want)):
             continue
         log.info("lateral group %s (%d rows)", name, len(rs))
-        results.append(run_lateral_group(name, rs, a.lateral_model, a.starts,
+        effects = tuple(a.effects.split(",")) if a.effects else LATERAL_EFFECTS
+        results.append(run_lateral_group(name, rs, a.lateral_model, a.starts, effects,
                                          profile=not a.no_profile))
         if a.json:
             Path(a.json).write_text(json.dumps(results, indent=1, default=float))
