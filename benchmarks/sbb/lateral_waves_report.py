@@ -179,7 +179,8 @@ def markdown(res, command) -> str:
     bands = BANDS + CONTEXT
     L = ["# Which wave carries the lateral far field at 100–200 Hz (SBB Niederwangen)", "",
          f"Reproduce: `{command}` (about 11 min on the shared 2-core machine, one BLAS "
-         "thread; `--from-json` rewrites the tables from a saved `--json`)", ""] + conclusion(res, BANDS + CONTEXT[:2]) + [
+         "thread; `--from-json` rewrites the tables from a saved `--json`)", ""]
+    L += conclusion(res, BANDS + CONTEXT[:2]) + [
          "## Set-up", "",
          "Track: site preset (kp 600 MN/m, eta_p 0.25, ms 120 kg, kb 42 MN/m, eta_b 1; "
          "lateral pad kp_lat 85.7 MN/m, eta 0.25, lateral ballast kb_lat 21 MN/m, eta 1, "
