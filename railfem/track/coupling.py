@@ -280,22 +280,41 @@ def couple_discrete(kernel: DiscreteKernel, stiffness, method: str = "auto") -> 
                + pp[None, None, None, :]).reshape(n_out * n_rx, n)
     rP_flat = kernel.rP_index[None, :, :] * n_out + oo[:, None, None]
     out = np.empty((nf, n_out, n_rx, n_fx), dtype=complex)
-    for i in range(nf):
-        ssr = kernel.ss[i].ravel()
-        B = kernel.sP[i].ravel()[sP_flat]
-        K = _spring_stiffness(K_sets[i], kernel.spring_weight, kernel.spring_direction)
-        a, b = _row_scaling(K, ssr[ss_diag])
-        F = None if chain is None else chain_solve(chain, kernel.ss[i], a, b, b[:, None] * B)
-        if F is None:
-            if not dense:
-                dense["ss"] = ((kernel.ss_index[:, None, :, None] * n_p
-                                + pp[None, :, None, None]) * n_p
-                               + pp[None, None, None, :]).reshape(n, n)
-                dense["plan"] = _mirror_plan(kernel, K_sets, dense["ss"])
-            F = _solve_dense(dense["plan"], dense["ss"], ssr, a, b, b[:, None] * B)
-        G = kernel.rs[i].ravel()[rs_flat]
-        out[i] = kernel.rP[i].ravel()[rP_flat] - (G @ F).reshape(n_out, n_rx, n_fx)
+    step = 1 if chain is None else max(1, min(16, int(2e6 / (n * max(n_fx, 1)))))
+    for i0 in range(0, nf, step):
+        fs = range(i0, min(nf, i0 + step))
+        rows = [_scaled_rows(kernel, K_sets[i], ss_diag, sP_flat, i) for i in fs]
+        a, b, rhs = (np.stack(x) for x in zip(*rows))
+        Fs = ([None] * len(fs) if chain is None
+              else chain_solve(chain, kernel.ss[fs.start:fs.stop], a, b, rhs))
+        for j, i in enumerate(fs):
+            out[i] = _respond(kernel, i, Fs[j], a[j], b[j], rhs[j], dense, K_sets, pp,
+                              rs_flat, rP_flat)
     return out
+
+
+def _scaled_rows(kernel, K_set, ss_diag, sP_flat, i):
+    """(a, b, rhs) of the coupling rows at frequency i (_row_scaling)."""
+    K = _spring_stiffness(K_set, kernel.spring_weight, kernel.spring_direction)
+    a, b = _row_scaling(K, kernel.ss[i].ravel()[ss_diag])
+    return a, b, b[:, None] * kernel.sP[i].ravel()[sP_flat]
+
+
+def _respond(kernel, i, F, a, b, rhs, dense, K_sets, pp, rs_flat, rP_flat):
+    """(n_out, n_rx, n_fx) response at frequency i from the spring forces F, solved
+    densely first when F is None (``dense`` keeps the gather and mirror plan)."""
+    n_s, n_p, n_rx, n_fx = kernel.shape
+    n = n_s * n_p
+    ssr = kernel.ss[i].ravel()
+    if F is None:
+        if not dense:
+            dense["ss"] = ((kernel.ss_index[:, None, :, None] * n_p
+                            + pp[None, :, None, None]) * n_p
+                           + pp[None, None, None, :]).reshape(n, n)
+            dense["plan"] = _mirror_plan(kernel, K_sets, dense["ss"])
+        F = _solve_dense(dense["plan"], dense["ss"], ssr, a, b, rhs)
+    G = kernel.rs[i].ravel()[rs_flat]
+    return kernel.rP[i].ravel()[rP_flat] - (G @ F).reshape(-1, n_rx, n_fx)
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -530,6 +549,8 @@ class SupportUpdate:
         k_dev = np.asarray(k_dev, dtype=complex).reshape(len(K), -1)
         pairs = np.arange(len(self.shift)) if pairs is None else np.asarray(pairs, dtype=int)
         U, pos, ok = self._gather(indices, pairs)
+        # every pair in order: views of the stored arrays instead of gathered copies
+        sel = slice(None) if np.array_equal(pairs, np.arange(len(self.shift))) else pairs
         m_sup, k = k_dev.shape[1], self.springs_per_support
         wsp = self.w[:k]  # the shares of one support's springs (a uniform pattern)
         act = np.repeat(np.any(k_dev != K[:, None], axis=0), k)
@@ -551,8 +572,8 @@ class SupportUpdate:
         dKD = ok[None] / (K[:, None, None] ** 2 * np.tile(wsp, m_sup)[None, None, :])
         for i0 in range(0, nf, step):
             f = slice(i0, min(nf, i0 + step))
-            out = self._block(f, K[f], D[f], Vu[f], Vc[f], pairs, pos, ia, ip, gradient,
-                              uniform)
+            out = self._block(f, K[f], D[f], Vu[f], Vc[f], pairs, sel, pos, ia, ip,
+                              gradient, uniform)
             u[f] = out[0]
             if gradient:
                 nb = out[0].shape[0]
@@ -563,7 +584,7 @@ class SupportUpdate:
             return u, du, duK
         return (u, du) if gradient else u
 
-    def _block(self, f, K, D, Vu, Vc, pairs, pos, ia, ip, gradient, uniform=False):
+    def _block(self, f, K, D, Vu, Vc, pairs, sel, pos, ia, ip, gradient, uniform=False):
         """receptance at the frequencies ``f`` (a slice): (u, d u / d D or None, d u / d K
         through the uniform coupling, D held, or None). Pairs
         on the same re-centred supports (equal shift) share their update matrix
@@ -571,13 +592,14 @@ class SupportUpdate:
         comes from it as well (A^-T a = a - C A^-1 D a, C = C^T to round-off)."""
         nb, n_out, n_pair = len(K), self.direct.shape[1], len(pairs)
         Kh = K[:, None] / (1.0 + K[:, None] * self.lam[f])  # (nb, n)
-        GK = self.GV[f][:, :, pairs] * Kh[:, None, None, :]  # (nb, o, pair, n)
-        VB = self.VB[f][:, :, pairs]  # (nb, n, pair)
-        u0 = self.direct[f][:, :, pairs] - np.einsum("fopn,fnp->fop", GK, VB)
-        VK = Vu * Kh[:, None, :]
-        MU = VK @ Vc  # (nb, u, u)
-        R = (GK.reshape(nb, n_out * n_pair, -1) @ Vc).reshape(nb, n_out, n_pair, -1)
-        Q = np.swapaxes(VK @ VB, 1, 2)  # (nb, pair, u)
+        GV = self.GV[f][:, :, sel]  # (nb, o, pair, n)
+        VB = self.VB[f][:, :, sel]  # (nb, n, pair)
+        KVc, KVB = Kh[:, :, None] * Vc, Kh[:, :, None] * VB
+        u0 = self.direct[f][:, :, sel] - np.einsum("fopn,fnp->fop", GV, KVB)
+        GV = GV.reshape(nb, n_out * n_pair, -1)
+        MU = Vu @ KVc  # (nb, u, u)
+        R = (GV @ KVc).reshape(nb, n_out, n_pair, -1)
+        Q = np.swapaxes(Vu @ KVB, 1, 2)  # (nb, pair, u)
         p = np.arange(n_pair)[:, None]
         pa = pos[:, ia]
         Da = D[:, :, ia]
@@ -632,12 +654,12 @@ class SupportUpdate:
         # d/dK with D held: Kh -> h^2 = 1 / (1 + K lam)^2 in u0, C, a and b;
         # du = du0 + da y + (w D) (db - dC y)
         h2 = 1.0 / (1.0 + K[:, None] * self.lam[f]) ** 2
-        GH = self.GV[f][:, :, pairs] * h2[:, None, None, :]
-        VH = Vu * h2[:, None, :]
-        dR = (GH.reshape(nb, n_out * n_pair, -1) @ Vc).reshape(nb, n_out, n_pair, -1)
-        dQ = np.swapaxes(VH @ VB, 1, 2)
-        dMU = VH @ Vc
+        HVc, HVB = h2[:, :, None] * Vc, h2[:, :, None] * VB
+        dR = (GV @ HVc).reshape(nb, n_out, n_pair, -1)
+        dQ = np.swapaxes(Vu @ HVB, 1, 2)
+        dMU = Vu @ HVc
         dCy = per_pair(zy @ np.swapaxes(dMU[:, pg[:, :, None], pg[:, None, :]], -1, -2))
-        duK = (-np.einsum("fopn,fnp->fop", GH, VB) + np.einsum("fopm,fpm->fop", dR[:, :, p, pa], y)
+        du0 = np.einsum("fopn,fnp->fop", GV.reshape(nb, n_out, n_pair, -1), HVB)
+        duK = (np.einsum("fopm,fpm->fop", dR[:, :, p, pa], y) - du0
                + np.einsum("fopm,fpm->fop", w * Da[:, None], dQ[:, p, pa] - dCy))
         return u, dD, duK
