@@ -306,3 +306,33 @@ def test_grid_inflation_carries_the_discrepancy_with_few_degrees_of_freedom():
     t2 = (stats.t.ppf(0.975, nu) / stats.t.ppf(0.975, n - 3)) ** 2
     assert t2 == pytest.approx(10.128 / 3.861, rel=0.01)
     assert got == pytest.approx(t2 * (c_model + v_d) / c_model, rel=1e-3)
+
+
+def test_grid_inflation_projects_the_discrepancy_on_the_secant_from_the_null_value():
+    """The variants' differences sit where the base (the null value) has its features: a
+    discrepancy column orthogonal to the local secant but along the secant from the null
+    value adds nothing through the first and its full shift through the second (N = a h,
+    h the null secant's column: the estimate moves by exactly a)."""
+    from railfem.diagnosis.refit import grid_inflation
+
+    rng = np.random.default_rng(5)
+    n = 480
+    xg = np.linspace(0, 1, n)
+    J = np.column_stack([np.ones_like(xg), np.cos(5 * xg)])
+    local = np.sin(3 * xg)
+    h = np.sin(40 * xg)  # the null secant: another shape (features elsewhere)
+    h = h - local * (local @ h) / (local @ local)  # orthogonal to the local secant
+    h = h - J @ np.linalg.lstsq(J, h, rcond=None)[0]  # and to the base columns
+    local = local - J @ np.linalg.lstsq(J, local, rcond=None)[0]
+    h = h - local * (local @ h) / (local @ local)
+    e = rng.standard_normal(n)
+    cl = np.arange(n)
+    plain = grid_inflation(J, e, e + 0.01 * local, 0.01, cl)
+    N = 0.5 * h[:, None]
+    assert grid_inflation(J, e, e + 0.01 * local, 0.01, cl, N) == pytest.approx(plain,
+                                                                               rel=1e-6)
+    step0 = -2.0
+    with_null = grid_inflation(J, e, e + 0.01 * local, 0.01, cl, N, (e + step0 * h, step0))
+    Jx = np.column_stack([J, local])
+    c_model = float(e @ e / (n - 3) * np.linalg.inv(Jx.T @ Jx)[-1, -1])
+    assert with_null > plain * (1 + 0.2 / c_model)  # at least a^2 = 0.25 added
