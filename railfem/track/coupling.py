@@ -234,8 +234,10 @@ def _family_kernel(kernel: DiscreteKernel, cols: np.ndarray) -> DiscreteKernel:
 
 #: springs (n_s n_p) from which a long uniform layout is solved as a chain of waves
 #: (railfem.track.semiseparable) rather than densely: below, the dense mirrored solve is
-#: as fast and keeps results bit for bit
+#: as fast and keeps results bit for bit; a kernel with springs in several directions
+#: (often without the mirror split) from CHAIN_MIN_SPRINGS_3D (5x faster at 786 springs)
 CHAIN_MIN_SPRINGS = 1200
+CHAIN_MIN_SPRINGS_3D = 400
 
 
 def couple_discrete(kernel: DiscreteKernel, stiffness, method: str = "auto") -> np.ndarray:
@@ -251,7 +253,8 @@ def couple_discrete(kernel: DiscreteKernel, stiffness, method: str = "auto") -> 
     method: 'dense', 'chain' (identical equally spaced supports as a sparse chain of
     waves, railfem.track.semiseparable; equal to the dense solve to round-off, other
     layouts and frequencies whose waves' realisation misses its tolerance solved densely)
-    or 'auto' (the chain from CHAIN_MIN_SPRINGS springs).
+    or 'auto' (the chain from CHAIN_MIN_SPRINGS springs, CHAIN_MIN_SPRINGS_3D with springs
+    in several directions).
     """
     if method not in ("auto", "dense", "chain"):
         raise ValueError(f"method = {method!r}: give 'auto', 'dense' or 'chain'")
@@ -267,7 +270,9 @@ def couple_discrete(kernel: DiscreteKernel, stiffness, method: str = "auto") -> 
                             for g in groups)
     n = n_s * n_p
     chain = None
-    if method == "chain" or (method == "auto" and n >= CHAIN_MIN_SPRINGS):
+    several = np.any(kernel.spring_direction != 2)
+    if method == "chain" or (method == "auto" and n >= (CHAIN_MIN_SPRINGS_3D if several
+                                                          else CHAIN_MIN_SPRINGS)):
         chain = chain_plan(kernel.spring_x, kernel.ss_index, n_p)
     # flat gather indices into (n_u * n_p * n_p) etc., built once per call
     pp = np.arange(n_p)

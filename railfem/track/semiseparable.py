@@ -114,9 +114,23 @@ def realisation_error(C, A, B, T) -> float:
     return err
 
 
+def _padded(real, r: int):
+    """A realisation (C, A, B) grown to r states by states that are never excited."""
+    C, A, B = real
+    k = A.shape[0]
+    Cp = np.zeros((C.shape[0], r), dtype=complex)
+    Ap = np.zeros((r, r), dtype=complex)
+    Bp = np.zeros((r, B.shape[1]), dtype=complex)
+    Cp[:, :k], Ap[:k, :k], Bp[:k] = C, A, B
+    return Cp, Ap, Bp
+
+
 def sweep(T0, forward, backward, a, b, rhs, N: int) -> np.ndarray:
-    """F (N nb, n_rhs) of the chain. Each support's own springs are eliminated first
-    (F_s = z_s - Z_s^f w_s - Z_s^b v_s, a batched nb x nb solve), leaving the waves:
+    """F (q, N nb, n_rhs) of the chain, for q problems at once (frequencies: T0 (q, nb, nb),
+    the realisations' matrices (q, ...), a, b (q, N nb), rhs (q, N nb, n_rhs)). Each
+    support's own springs are eliminated first (F_s = z_s - Z_s^f w_s - Z_s^b v_s, one
+    nb x nb solve per support, or one for all when the supports are identical), leaving the
+    waves:
 
         w_(s+1) = (A - B Z_s^f) w_s - B Z_s^b v_s + B z_s           (w_0 = 0)
         v_(s-1) = -B' Z_s^f w_s + (A' - B' Z_s^b) v_s + B' z_s      (v_(N-1) = 0)
@@ -125,62 +139,80 @@ def sweep(T0, forward, backward, a, b, rhs, N: int) -> np.ndarray:
     s and their sources: bounded, as the waves are), then v back from the right end."""
     Cf, Af, Bf = forward
     Cb, Ab, Bb = backward
-    nb, rf, rb, n_rhs = T0.shape[0], Af.shape[0], Ab.shape[0], rhs.shape[1]
-    ab, bb = a.reshape(N, nb), b.reshape(N, nb)
-    rhs = rhs.reshape(N, nb, n_rhs)
-    if np.all(ab == ab[:1]) and np.all(bb == bb[:1]):  # identical supports: one factor
-        local = bb[0, :, None] * T0
-        local[np.diag_indices(nb)] += ab[0]
-        Zw = np.linalg.solve(local, np.concatenate([bb[0, :, None] * Cf,
-                                                    bb[0, :, None] * Cb], axis=1))
-        Zw = np.broadcast_to(Zw, (N,) + Zw.shape)
-        z = np.linalg.solve(local, rhs.transpose(1, 0, 2).reshape(nb, -1))
-        z = z.reshape(nb, N, n_rhs).transpose(1, 0, 2)
+    q, nb = T0.shape[:2]
+    rf, rb, n_rhs = Af.shape[1], Ab.shape[1], rhs.shape[-1]
+    ab, bb = a.reshape(q, N, nb), b.reshape(q, N, nb)
+    rhs = rhs.reshape(q, N, nb, n_rhs)
+    W = np.concatenate([Cf, Cb], axis=-1)[:, None] * bb[..., None]  # (q, N, nb, rf + rb)
+    if np.all(ab == ab[:, :1]) and np.all(bb == bb[:, :1]):  # identical supports
+        local = bb[:, 0, :, None] * T0
+        local[:, np.arange(nb), np.arange(nb)] += ab[:, 0]
+        Zw = np.linalg.solve(local, W[:, 0])[:, None]  # (q, 1, nb, r)
+        z = np.linalg.solve(local, rhs.transpose(0, 2, 1, 3).reshape(q, nb, N * n_rhs))
+        z = z.reshape(q, nb, N, n_rhs).transpose(0, 2, 1, 3)
     else:
-        local = bb[:, :, None] * T0[None]
-        local[:, np.arange(nb), np.arange(nb)] += ab
-        Z = np.linalg.solve(local, np.concatenate(
-            [bb[:, :, None] * Cf[None], bb[:, :, None] * Cb[None], rhs], axis=2))
-        Zw, z = Z[:, :, :rf + rb], Z[:, :, rf + rb:]
-    Gw, Gz = Bf @ Zw, Bb @ Zw  # (N, r, rf + rb)
-    Ff, Fb = Af - Gw[:, :, :rf], -Gw[:, :, rf:]
-    Vf, Vb = -Gz[:, :, :rf], Ab - Gz[:, :, rf:]
-    fz, vz = Bf @ z, Bb @ z  # (N, r, n_rhs)
+        local = bb[..., None] * T0[:, None]
+        local[..., np.arange(nb), np.arange(nb)] += ab
+        Z = np.linalg.solve(local, np.concatenate([W, rhs], axis=-1))
+        Zw, z = Z[..., :rf + rb], Z[..., rf + rb:]
+    Gw, Gz = Bf[:, None] @ Zw, Bb[:, None] @ Zw  # (q, N or 1, r, rf + rb)
+    shape = (q, N)
+    Ff = np.broadcast_to(Af[:, None] - Gw[..., :rf], shape + (rf, rf))
+    Fb = np.broadcast_to(-Gw[..., rf:], shape + (rf, rb))
+    Vf = np.broadcast_to(-Gz[..., :rf], shape + (rb, rf))
+    Vb = np.broadcast_to(Ab[:, None] - Gz[..., rf:], shape + (rb, rb))
+    fz, vz = Bf[:, None] @ z, Bb[:, None] @ z  # (q, N, r, n_rhs)
     I_b = np.eye(rb)
-    XY = np.concatenate([Fb[0], fz[0]], axis=1)  # [X y]: w_1 = X v_0 + y
-    XYs = [None, XY]
+    XY = np.concatenate([Fb[:, 0], fz[:, 0]], axis=-1)  # [X y]: w_1 = X v_0 + y
+    XYs = [XY]
     Pp = [None] * N  # [Pv pv]: v_(s-1) = Pv v_s + pv
     for s_ in range(1, N):
         # v_(s-1) = Vf w_s + Vb v_s + vz with w_s = X v_(s-1) + y
-        VXY = Vf[s_] @ XY
-        rhs_v = np.concatenate([Vb[s_], vz[s_] + VXY[:, rb:]], axis=1)
-        Pp[s_] = np.linalg.solve(I_b - VXY[:, :rb], rhs_v)
+        VXY = Vf[:, s_] @ XY
+        rhs_v = np.concatenate([Vb[:, s_], vz[:, s_] + VXY[..., rb:]], axis=-1)
+        Pp[s_] = np.linalg.solve(I_b - VXY[..., :rb], rhs_v)
         if s_ < N - 1:  # w_(s+1) = Ff w_s + Fb v_s + fz
-            FXY = Ff[s_] @ XY
-            XY = FXY[:, :rb] @ Pp[s_]
-            XY[:, :rb] += Fb[s_]
-            XY[:, rb:] += FXY[:, rb:] + fz[s_]
+            FXY = Ff[:, s_] @ XY
+            XY = FXY[..., :rb] @ Pp[s_]
+            XY[..., :rb] += Fb[:, s_]
+            XY[..., rb:] += FXY[..., rb:] + fz[:, s_]
             XYs.append(XY)
-    v = np.zeros((N, rb, n_rhs), dtype=complex)  # v_(N-1) = 0
+    v = np.zeros((q, N, rb, n_rhs), dtype=complex)  # v_(N-1) = 0
     for s_ in range(N - 1, 0, -1):
-        v[s_ - 1] = Pp[s_][:, :rb] @ v[s_] + Pp[s_][:, rb:]
-    XYa = np.stack(XYs[1:])
-    w = np.zeros((N, rf, n_rhs), dtype=complex)  # w_0 = 0
-    w[1:] = XYa[:, :, :rb] @ v[:-1] + XYa[:, :, rb:]
-    return (z - Zw[:, :, :rf] @ w - Zw[:, :, rf:] @ v).reshape(N * nb, n_rhs)
+        v[:, s_ - 1] = Pp[s_][..., :rb] @ v[:, s_] + Pp[s_][..., rb:]
+    XYa = np.stack(XYs, axis=1)  # (q, N - 1, rf, rb + n_rhs)
+    w = np.zeros((q, N, rf, n_rhs), dtype=complex)  # w_0 = 0
+    w[:, 1:] = XYa[..., :rb] @ v[:, :-1] + XYa[..., rb:]
+    return (z - Zw[..., :rf] @ w - Zw[..., rf:] @ v).reshape(q, N * nb, n_rhs)
 
 
-def chain_solve(plan: ChainPlan, ss_i: np.ndarray, a: np.ndarray, b: np.ndarray,
-                rhs: np.ndarray, tol: float = REALISE_TOL):
-    """F of (diag(a) + diag(b) alpha_ss) F = rhs (springs set-major as the kernel's), or
-    None when the waves' realisation of alpha_ss misses ``tol`` (the caller solves
-    densely)."""
+def chain_solve(plan: ChainPlan, ss: np.ndarray, a: np.ndarray, b: np.ndarray,
+                rhs: np.ndarray, tol: float = REALISE_TOL) -> list:
+    """F of (diag(a) + diag(b) alpha_ss) F = rhs (springs set-major as the kernel's) for
+    q frequencies at once: ss (q, n_u, n_p, n_p) the kernel's spring receptances, a, b
+    (q, n), rhs (q, n, n_rhs). A list of q arrays (n, n_rhs), None where the waves'
+    realisation of alpha_ss misses ``tol`` (the caller solves that frequency densely)."""
     N = plan.n_sup
-    T = plan.blocks(ss_i)
-    scale = np.abs(T).max()
-    fwd, bwd = T[N:], T[N - 2::-1]  # T_1, T_2, ... and T_-1, T_-2, ...
-    forward, backward = realise(fwd), realise(bwd)
-    if max(realisation_error(*forward, fwd), realisation_error(*backward, bwd)) > tol * scale:
-        return None
-    F = sweep(T[N - 1], forward, backward, a, b, rhs, N)
-    return F if np.all(np.isfinite(F)) else None
+    ok, T0, fw, bw = [], [], [], []
+    for i in range(len(ss)):
+        T = plan.blocks(ss[i])
+        scale = np.abs(T).max()
+        fwd, bwd = T[N:], T[N - 2::-1]  # T_1, T_2, ... and T_-1, T_-2, ...
+        forward, backward = realise(fwd), realise(bwd)
+        err = max(realisation_error(*forward, fwd), realisation_error(*backward, bwd))
+        if err <= tol * scale:
+            ok.append(i)
+            T0.append(T[N - 1])
+            fw.append(forward)
+            bw.append(backward)
+    out = [None] * len(ss)
+    if not ok:
+        return out
+    rf, rb = max(x[1].shape[0] for x in fw), max(x[1].shape[0] for x in bw)
+    forward = [np.stack(m) for m in zip(*(_padded(x, rf) for x in fw))]
+    backward = [np.stack(m) for m in zip(*(_padded(x, rb) for x in bw))]
+    F = sweep(np.stack(T0), forward, backward, a[ok], b[ok], rhs[ok], N)
+    for j, i in enumerate(ok):
+        if np.all(np.isfinite(F[j])):
+            out[i] = F[j]
+    return out
