@@ -4,7 +4,7 @@ run in a process of its own, optionally against another checkout of railfem side
     python benchmarks/bench_diagnosis.py                 # practice_site_b, both models
     python benchmarks/bench_diagnosis.py --models timoshenko-discrete
     python benchmarks/bench_diagnosis.py --models wfe-discrete --effects all --f-high 4000 \
-        --old /tmp/railfem-before --out benchmarks/results/results_diagnosis.txt
+        --old /tmp/railfem-before --parallel --out benchmarks/results/results_diagnosis.txt
 
 For each model: railfem.jobs.diagnose.run_diagnose on the dataset (29 EN 15461 positions,
 head and foot sensors, 69 frequencies at 1/9 octave, 50 Hz - 8 kHz, or up to --f-high),
@@ -25,7 +25,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import subprocess
 import sys
 import tempfile
@@ -49,6 +48,9 @@ def parse_args(argv=None):
                    help="diagnose up to this frequency (Hz; default the whole dataset)")
     p.add_argument("--old", type=Path, default=None,
                    help="a checkout of railfem (the code before) to run side by side")
+    p.add_argument("--parallel", action="store_true",
+                   help="run the old and the new code at the same time (CPU times are each "
+                        "run's own; the wall times then share the machine)")
     p.add_argument("--out", type=Path, default=HERE / "results" / "results_diagnosis.txt")
     p.add_argument("--one", nargs=2, metavar=("MODEL", "OUT_DIR"), help=argparse.SUPPRESS)
     return p.parse_args(argv)
@@ -71,22 +73,29 @@ def run_one(args) -> None:
                       "candidates": n, "diagnosis": str(path)}))
 
 
-def timed(args, model: str, code: Path | None, out: Path) -> dict:
-    """run_one in a child process (code: a railfem checkout first on the path): its record
-    with the wall and CPU time (user + system of the child and its children)."""
+def start(args, model: str, code: Path | None, out: Path):
+    """run_one in a child process (code: a railfem checkout first on the path), its output
+    to files in ``out``: (the process, its start time)."""
     env = dict(os.environ)
     if code is not None:
         env["PYTHONPATH"] = str(code) + os.pathsep + env.get("PYTHONPATH", "")
     cmd = [sys.executable, __file__, "--data", str(args.data), "--effects", args.effects,
            "--workers", str(args.workers), "--threads", str(args.threads),
            "--one", model, str(out)] + (["--f-high", str(args.f_high)] if args.f_high else [])
-    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
-    t = time.perf_counter()
-    res = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True)
-    wall = time.perf_counter() - t
-    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
-    cpu = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
-    return dict(json.loads(res.stdout.strip().splitlines()[-1]), wall=wall, cpu=cpu)
+    out.mkdir(parents=True, exist_ok=True)
+    with open(out / "stdout.txt", "w") as so, open(out / "stderr.txt", "w") as se:
+        return subprocess.Popen(cmd, env=env, stdout=so, stderr=se), time.perf_counter()
+
+
+def finish(proc, t0: float, out: Path) -> dict:
+    """Wait for a start()ed run: its record with the wall time and the CPU time (user +
+    system of the child and its children, os.wait4)."""
+    _, status, ru = os.wait4(proc.pid, 0)
+    wall = time.perf_counter() - t0
+    if status != 0:
+        raise RuntimeError(f"the run in {out} failed: {(out / 'stderr.txt').read_text()[-2000:]}")
+    rec = json.loads((out / "stdout.txt").read_text().strip().splitlines()[-1])
+    return dict(rec, wall=wall, cpu=ru.ru_utime + ru.ru_stime)
 
 
 def compare(old_json: str, new_json: str) -> str:
@@ -148,7 +157,14 @@ def main(argv=None):
     notes = []
     for model in args.models:
         runs = [("new", None)] + ([("old", args.old)] if args.old else [])
-        got = {tag: timed(args, model, code, tmp / f"{model}_{tag}") for tag, code in runs}
+        got = {}
+        if args.parallel:  # side by side: each one's CPU time is its own
+            procs = {tag: start(args, model, code, tmp / f"{model}_{tag}") for tag, code in runs}
+            got = {tag: finish(*procs[tag], tmp / f"{model}_{tag}") for tag, _ in runs}
+        for tag, code in runs:
+            if tag not in got:
+                got[tag] = finish(*start(args, model, code, tmp / f"{model}_{tag}"),
+                                  tmp / f"{model}_{tag}")
         for tag, _ in runs:
             r, s = got[tag], got[tag]["seconds"]
             ratio = got["old"]["cpu"] / r["cpu"] if "old" in got else float("nan")
