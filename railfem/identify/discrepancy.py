@@ -27,6 +27,29 @@ diagnosis add it to the noise variance of every residual entry
 model cannot predict (near cut-ons) weigh less, the parameter intervals carry the
 discrepancy, and the residual tests (railfem.diagnosis.residual) judge against noise plus
 discrepancy.
+
+**Where an effect acts in the bands of the discrepancy.** Near a cut-on the variants'
+differences are a shift of the cut-on frequency (on 60E1 the foot-flapping cut-on, about
+5.1 kHz: straight edges +75 Hz, a 15 mm mesh +15 Hz), seen on the data's lines as level
+differences of several dB. s_d^2 keeps only their size per band, so an effect that moves
+the same cut-on (a foot thicker by 1 mm: +120 Hz) cannot be told from the discretisation
+by its level change: a shift of 300 Hz and one of 50 Hz both change those bands by about
+their s_d, the peak being narrower than the lines' spacing. What tells them apart is the
+direction: ``samples`` keeps each variant's differences entry by entry, and their
+least-squares projection on a candidate's change is the shift the variant would make in
+the candidate's own parameter (a foot 3.5 mm thicker: 0.5 mm from the straight-edge
+variant, under 0.1 mm from the others), the frequency-warp reading of the discrepancy
+without a warp model. The diagnosis judges the candidate by it
+(railfem.diagnosis.residual.along_discrepancy) and widens a profiled parameter's interval
+by it (railfem.diagnosis.refit.grid_inflation); continuous parameters take it through
+Problem.discrepancy_columns. Two alternatives were weighed and not taken: a band-by-band
+gate (a change over its band's s_d^2) lets any change pass in bands the variants barely
+move (s_d^2 of 0.001 dB^2 at 100 Hz) and does not separate the two shifts above; a
+discrepancy variance estimated from the data (REML, Kennedy-O'Hagan) is confounded with
+exactly the effects that act where the discrepancy is large: the cut-on misfit of a
+thicker foot would be taken as discrepancy and the effect absorbed. The ensemble is
+information from outside the data, and three variants are few: in the gate and in a
+profiled (grid) parameter's interval the quantile is Student's over their number.
 """
 from __future__ import annotations
 
