@@ -282,7 +282,7 @@ class TrackSpec:
         if len(self.support_directions) > 1 and self.is_beam:
             raise ValueError(f"TrackSpec.support_directions = {dirs!r} with model "
                              f"{self.model!r}: the Timoshenko models are vertical beams; use "
-                             "a WFE model (or beams.lateral_* for the lateral beam)")
+                             "a WFE model (or railfem.track.lateral_beam for the lateral beam)")
         if not isinstance(self.support, SupportParameters):
             raise TypeError(f"TrackSpec.support must be SupportParameters, got "
                             f"{type(self.support).__name__}")

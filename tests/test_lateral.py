@@ -3,7 +3,7 @@
 Independent checks: the sum/difference spring columns against the same springs taken one by
 one (no pairing), the mirror-split coupling against the plain dense solve, reciprocity
 between a vertical and a lateral load (both families active), the WFE rail on a continuous
-support against the lateral bending-torsion beam (railfem.track.beams.LateralSection) at low
+support against the lateral bending-torsion beam (railfem.track.lateral_beam.LateralSection) at low
 frequency, discrete vs periodic supports, and vertical results unchanged by the new
 horizontal fields when the supports act vertically only."""
 
@@ -12,7 +12,7 @@ import pytest
 
 import railfem as rf
 from railfem import models
-from railfem.track import beams
+from railfem.track import beams, lateral_beam
 from railfem.track import coupling
 from railfem.track import directions
 from railfem.track import footprints
@@ -164,12 +164,12 @@ def test_lateral_wfe_against_bending_torsion_beam_on_continuous_support(rail):
     out = mobility.point(g, waveguide.nearest_boundary_node(g, *side), "y")
     wfe = track.continuous_receptance(g, spec_sup, 0.6, f, load=lat, outputs=[out], x=x,
                                       directions="zy", load_length=0.02).receptance[:, 0, :, 0]
-    ls = beams.LateralSection.from_mesh(g.mesh, g.material)
+    ls = lateral_beam.LateralSection.from_mesh(g.mesh, g.material)
     bed = track.foot_bed(g).diagonal()
     y = np.zeros(g.n_dofs)
     y[g.node_dofs[:, 2]] = g.nodes[:, 0]
     P = ls.point(*side, "y")
-    bm = beams.lateral_track_receptance(ls, spec_sup, 0.6, 2 * np.pi * f, x, [P], [P],
+    bm = lateral_beam.lateral_track_receptance(ls, spec_sup, 0.6, 2 * np.pi * f, x, [P], [P],
                                         bed_moment=float(bed @ y**2),
                                         z_foot=float(g.nodes[:, 1].min()),
                                         load_length=0.02)[:, 0, :, 0]
@@ -183,14 +183,14 @@ def test_lateral_beam_decouples_to_timoshenko():
     """With the shear centre at the centroid and the foundation at the shear centre, the
     lateral beam's v is the plain Timoshenko beam in lateral bending (railfem.track.beams)."""
     m = Material.steel(0.02)
-    ls = beams.LateralSection(E=m.E, G=m.G, rho=m.rho, eta=0.02, area=7.67e-3, I_z=5.12e-6,
+    ls = lateral_beam.LateralSection(E=m.E, G=m.G, rho=m.rho, eta=0.02, area=7.67e-3, I_z=5.12e-6,
                               kappa_y=0.55, J=2.2e-6, Gamma=1.6e-8, I_p=3.55e-5, z_s=0.05,
                               e=0.0)
     bs = beams.BeamSection(E=m.E, G=m.G, area=ls.area, I=ls.I_z, kappa=ls.kappa_y,
                            rho=m.rho, eta=0.02)
     w = 2 * np.pi * np.array([50.0, 300.0, 2000.0])
     x = np.array([0.0, 0.7, -1.3])
-    a = beams.lateral_receptance(ls, w, x, [[1, 0, 0]], [[1, 0, 0]], k_y=3e7,
+    a = lateral_beam.lateral_receptance(ls, w, x, [[1, 0, 0]], [[1, 0, 0]], k_y=3e7,
                                  z_spring=ls.z_s)[:, 0, :, 0]
     assert np.allclose(a, beams.supported_beam_receptance(bs, w, x, 3e7), rtol=1e-9)
 

@@ -16,7 +16,7 @@ from railfem import models
 from railfem import spec as specs
 from railfem.materials import Material
 from railfem.rail import meshing, mobility, waveguide
-from railfem.track import beams, directions, footprints, supports
+from railfem.track import directions, footprints, lateral_beam, supports
 from railfem.track import wfe as track
 
 SITE = supports.PRESETS["site"]
@@ -140,7 +140,7 @@ def bar():
 def test_continuous_grip_against_bending_torsion_beam(bar):
     """WFE bar on the continuous support with roll restraint and clips ('zyr') against the
     lateral beam with the same foundation: rotational k_theta = (K_z bed moment + k_roll)/d,
-    lateral K_y/d with the clip (beams.lateral_receptance): within 0.3 dB at 50-125 Hz
+    lateral K_y/d with the clip (lateral_beam.lateral_receptance): within 0.3 dB at 50-125 Hz
     (measured 0.06 dB; 0.44 dB without the grip at 2 m, 50 Hz). On the 60E1 rail the same
     comparison parts by up to 4.5 dB for k_roll = 4e5 N m/rad: the web bends, so a
     restrained foot holds the head less than a rigid section says."""
@@ -151,7 +151,7 @@ def test_continuous_grip_against_bending_torsion_beam(bar):
     out = mobility.point(g, waveguide.nearest_boundary_node(g, *side), "y")
     kw = dict(load=lat, outputs=[out], x=x, load_length=0.02)
     wfe = track.continuous_receptance(g, GRIP, 0.6, f, directions="zyr", **kw)
-    ls = beams.LateralSection.from_mesh(g.mesh, g.material)
+    ls = lateral_beam.LateralSection.from_mesh(g.mesh, g.material)
     bed = track.foot_bed(g).diagonal()
     y = np.zeros(g.n_dofs)
     y[g.node_dofs[:, 2]] = g.nodes[:, 0]
@@ -159,7 +159,7 @@ def test_continuous_grip_against_bending_torsion_beam(bar):
     w = 2 * np.pi * f
     kt = (supports.dynamic_stiffness(GRIP, w) * float(bed @ y ** 2) + 4e5 * (1 + 0.2j)) / 0.6
     ky = directions.directional_stiffness(GRIP, w, "y") / 0.6
-    bm = beams.lateral_receptance(ls, w, x, [P], [P], k_y=ky, k_theta=kt,
+    bm = lateral_beam.lateral_receptance(ls, w, x, [P], [P], k_y=ky, k_theta=kt,
                                   z_spring=float(g.nodes[:, 1].min()), load_length=0.02)
     db = 20 * np.log10(np.abs(wfe.receptance[:, 0, :, 0] / bm[:, 0, :, 0]))
     assert np.abs(db).max() < 0.3

@@ -41,7 +41,7 @@ import railfem as rf  # noqa: E402
 from railfem import models  # noqa: E402
 from railfem.io.tdr_table import SBB_NIEDERWANGEN_COLUMNS, read_decay_rate_table  # noqa: E402
 from railfem.standards import en15461, iec61260  # noqa: E402
-from railfem.track import beams  # noqa: E402
+from railfem.track import lateral_beam  # noqa: E402
 from railfem.track.directions import directional_stiffness, roll_inertia  # noqa: E402
 from railfem.track.sleeper import TWO_LAYER_ASSUMED  # noqa: E402
 from railfem.track.wavecontent import (  # noqa: E402
@@ -174,7 +174,7 @@ def wave_table(spec, f, n_show=6):
 
 def section():
     spec = base_spec()
-    return beams.LateralSection.from_mesh(models.rail_mesh(spec.rail), spec.rail.material())
+    return lateral_beam.LateralSection.from_mesh(models.rail_mesh(spec.rail), spec.rail.material())
 
 
 def rocking_constants(ls):

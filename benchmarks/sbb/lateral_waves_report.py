@@ -248,7 +248,7 @@ def markdown(res, command) -> str:
           f"= {cf['B']:.0f} N m⁴ (lateral bending of the section turning about the foot, and "
           f"warping), GJ = {cf['GJ']:.3g} N m², J_f = ρ (I_p + A z_C²) = {cf['J_f']:.3f} "
           "kg m (polar inertia about the foot), k_θ the roll restraint per metre (constants "
-          "of railfem.track.beams.LateralSection.from_mesh, rail loss factor on B and GJ). "
+          "of railfem.track.lateral_beam.LateralSection.from_mesh, rail loss factor on B and GJ). "
           "Waves: k² = (−GJ ± √(GJ² − 4 B (k_θ − ω² J_f))) / 2B. Above the cut-on "
           "ω_c = √(k_θ / J_f) one root is real (a propagating wave, decay from the losses "
           "only); below it the least decay is ≈ 8.686 √((k_θ − ω² J_f) / GJ).", "",
