@@ -278,15 +278,12 @@ def test_a_change_the_variants_make_does_not_pass_the_gate_however_large(small_d
     assert gb["along"]["z2"] == pytest.approx(50.0, rel=0.3) and gb["pass"], gb
 
 
-def test_grid_inflation_carries_the_discrepancy_with_few_degrees_of_freedom():
+def test_the_grid_interval_widens_by_the_variants_shift_with_their_t_quantile():
     """A grid parameter whose secant column g is moved by three variants (N = a_j g: each
-    shifts the estimate by exactly a_j): its variance gains sum a_j^2 and, with that part
-    dominant, the quantile is Student's with about 3 degrees of freedom instead of
-    N - p (t^2 ratio 10.13 / 3.86); without discrepancy (or a zero one) the factor is as
-    before."""
-    from scipy import stats
-
-    from railfem.diagnosis.refit import grid_inflation
+    shifts the estimate by exactly a_j): the shift's variance is sum a_j^2 whatever the
+    noise; the interval's half-widths h become sqrt(h^2 + t^2(0.975, 3) sum a_j^2)
+    (t = 3.182); no discrepancy leaves them as they are."""
+    from railfem.diagnosis.refit import grid_shift_variance, widen
 
     rng = np.random.default_rng(4)
     n = 480
@@ -294,45 +291,32 @@ def test_grid_inflation_carries_the_discrepancy_with_few_degrees_of_freedom():
     J = np.column_stack([np.ones_like(xg), np.cos(5 * xg)])
     col = np.sin(3 * xg)
     e = rng.standard_normal(n)
-    cl = np.arange(n)
-    plain = grid_inflation(J, e, e + 0.01 * col, 0.01, cl)
-    assert grid_inflation(J, e, e + 0.01 * col, 0.01, cl, np.zeros((n, 3))) == plain
-    Jx = np.column_stack([J, col])
-    c_model = float(e @ e / (n - 3) * np.linalg.inv(Jx.T @ Jx)[-1, -1])
-    a = np.array([1.0, -2.0, 1.5]) * 100 * np.sqrt(c_model)  # sum a^2 ~ 7e4 C
-    got = grid_inflation(J, e, e + 0.01 * col, 0.01, cl, col[:, None] * a[None, :])
-    v_d = float(a @ a)
-    nu = (c_model + v_d) ** 2 / (c_model ** 2 / (n - 3) + v_d ** 2 / 3)
-    t2 = (stats.t.ppf(0.975, nu) / stats.t.ppf(0.975, n - 3)) ** 2
-    assert t2 == pytest.approx(10.128 / 3.861, rel=0.01)
-    assert got == pytest.approx(t2 * (c_model + v_d) / c_model, rel=1e-3)
+    a = np.array([1.0, -2.0, 1.5])
+    v = grid_shift_variance(J, e, col, col[:, None] * a[None, :])
+    assert v == pytest.approx(float(a @ a), rel=1e-9)
+    assert grid_shift_variance(J, e, col, None) == 0.0
+    lo, hi = widen([2.0, 5.0], 3.0, 0.25, 3)
+    assert lo == pytest.approx(3.0 - np.sqrt(1.0 + 3.182 ** 2 * 0.25), rel=1e-3)
+    assert hi == pytest.approx(3.0 + np.sqrt(4.0 + 3.182 ** 2 * 0.25), rel=1e-3)
+    assert widen([2.0, 5.0], 3.0, 0.0, 3) == [2.0, 5.0]
 
 
-def test_grid_inflation_projects_the_discrepancy_on_the_secant_from_the_null_value():
+def test_the_shift_is_projected_on_the_secant_it_is_given():
     """The variants' differences sit where the base (the null value) has its features: a
-    discrepancy column orthogonal to the local secant but along the secant from the null
-    value adds nothing through the first and its full shift through the second (N = a h,
-    h the null secant's column: the estimate moves by exactly a)."""
-    from railfem.diagnosis.refit import grid_inflation
+    discrepancy column orthogonal to the local secant (and the other columns) adds nothing
+    projected on it, and its full shift (N = a h: exactly a) projected on the secant from
+    the null value, h."""
+    from railfem.diagnosis.refit import grid_shift_variance
 
-    rng = np.random.default_rng(5)
     n = 480
     xg = np.linspace(0, 1, n)
     J = np.column_stack([np.ones_like(xg), np.cos(5 * xg)])
     local = np.sin(3 * xg)
-    h = np.sin(40 * xg)  # the null secant: another shape (features elsewhere)
-    h = h - local * (local @ h) / (local @ local)  # orthogonal to the local secant
-    h = h - J @ np.linalg.lstsq(J, h, rcond=None)[0]  # and to the base columns
     local = local - J @ np.linalg.lstsq(J, local, rcond=None)[0]
-    h = h - local * (local @ h) / (local @ local)
-    e = rng.standard_normal(n)
-    cl = np.arange(n)
-    plain = grid_inflation(J, e, e + 0.01 * local, 0.01, cl)
+    h = np.sin(40 * xg)
+    h = h - J @ np.linalg.lstsq(J, h, rcond=None)[0]
+    h = h - local * (local @ h) / (local @ local)  # orthogonal to the local secant too
+    e = np.random.default_rng(5).standard_normal(n)
     N = 0.5 * h[:, None]
-    assert grid_inflation(J, e, e + 0.01 * local, 0.01, cl, N) == pytest.approx(plain,
-                                                                               rel=1e-6)
-    step0 = -2.0
-    with_null = grid_inflation(J, e, e + 0.01 * local, 0.01, cl, N, (e + step0 * h, step0))
-    Jx = np.column_stack([J, local])
-    c_model = float(e @ e / (n - 3) * np.linalg.inv(Jx.T @ Jx)[-1, -1])
-    assert with_null > plain * (1 + 0.2 / c_model)  # at least a^2 = 0.25 added
+    assert grid_shift_variance(J, e, local, N) == pytest.approx(0.0, abs=1e-12)
+    assert grid_shift_variance(J, e, h, N) == pytest.approx(0.25, rel=1e-9)

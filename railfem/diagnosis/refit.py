@@ -107,7 +107,10 @@ class Outcome:
                 prof = self.grid_profiles[key]
                 iv = interval_from_profile(prof, s2 * prof.get("inflation", 1.0),
                                            float(stats.chi2.ppf(level, 1)))
-                p["ci95_joint"] = iv["ci95"]
+                p["ci95_joint"] = widen(iv["ci95"], prof["value"],
+                                        prof.get("discrepancy_var", 0.0),
+                                        prof.get("discrepancy_terms", 1),
+                                        1 - (1 - level) / 2)
             elif np.isfinite(p.get("std_vector", np.inf)):
                 q, v, sd = box[p["name"]], p["vector"], p["std_vector"]
                 p["ci95_joint"] = [uncertainty.decode(q, v - t * sd),
@@ -272,11 +275,22 @@ def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
         if not prof["integer"] and len(prof["values"]) > 1:
             j = keys.index(k)
             nb = best[:j] + (_nearest_other(prof["values"], best[j]),) + best[j + 1:]
-            prof["inflation"] = grid_inflation(J, r, problem_for(nb).residual(x),
-                                               nb[j] - best[j], clusters,
-                                               pb.discrepancy_columns(),
-                                               _null(effects, k, best, j, problem_for, x))
+            r_nb = problem_for(nb).residual(x)
+            prof["inflation"] = grid_inflation(J, r, r_nb, nb[j] - best[j], clusters)
+            null = _null(effects, k, best, j, problem_for, x)
+            secant = (r_nb - r) / (nb[j] - best[j]) if null is None else \
+                (null[0] - r) / null[1]
+            Nd = pb.discrepancy_columns()
+            prof["discrepancy_var"] = grid_shift_variance(J, r, secant, Nd)
+            prof["discrepancy_terms"] = 0 if Nd is None else int(Nd.shape[1])
         prof.update(interval_from_profile(prof, s2 * prof.get("inflation", 1.0)))
+        if not prof["integer"]:
+            _close_profile(prof, keys.index(k), best, values, results, problem_for,
+                           x_base, s2)
+            if prof.get("discrepancy_var"):
+                prof["ci95_profile"] = prof["ci95"]
+                prof["ci95"] = widen(prof["ci95"], prof["value"], prof["discrepancy_var"],
+                                     prof["discrepancy_terms"])
     k = len(x) + len(keys) + 1  # + the rail loss factor (fitted with the base)
     return Outcome(effects=effects, grid=dict(zip(keys, best)), x=x,
                    eta_r=float(spec.rail.eta), cost=c, n=len(r) - pb.n_prior(), k=k,
@@ -288,49 +302,82 @@ def _nearest_other(values, v):
     return min((u for u in values if u != v), key=lambda u: abs(u - v))
 
 
-def grid_inflation(J, r, r_nb, step, clusters, discrepancy=None, null=None) -> float:
+def grid_inflation(J, r, r_nb, step, clusters) -> float:
     """Variance inflation of a profiled grid parameter: with its column (r_nb - r) / step
     (the residual at the neighbouring grid value, the rest held) added to the Jacobian, the
-    larger of the cluster-robust and the model-based variance of that parameter plus what
-    the model-form ``discrepancy`` adds (N: railfem.identify.problem.Problem.
-    discrepancy_columns, one column per variant of the base; the estimate's shift under
-    each variant projected on the grid's secant, uncertainty.nuisance_covariance), over
-    the model-based variance, at least 1. The profile interval's threshold (chi^2 s^2) is
-    scaled by it, as the continuous parameters take the same variance.
-
-    The discrepancy term is the model-form error expressed in the grid parameter's own
-    units: near a cut-on the variants' level differences are a shift of the cut-on, and
-    their projection on the secant of a parameter that moves the cut-on (a foot
-    thickness) is the thickness change that would make the same shift. The interval then
-    holds the truth of data from another discretisation, whose cut-on sits elsewhere by
-    about that much. ``null``: (r_0, v_0 - v), the residual at the parameter's null value
-    (the effect's start: no change) and the distance to it; the discrepancy is then
-    projected on that secant instead of the neighbour's. The variants' differences are
-    those of the base, at the null value, so they lie at the base's cut-on: a neighbour's
-    secant at a foot 3.5 mm thicker moves a cut-on 400 Hz away from them and sees almost
-    none of them (on cross-model data the interval stayed +-0.2 mm about 3.5 mm for a
-    foot 2.5 mm thicker); the secant from the null value runs through both.
-
-    That variance is estimated from a few variants (their number the columns of N): the
-    interval's quantile is Student's with the Welch-Satterthwaite degrees of freedom nu of
-    noise part (N - p entries) plus discrepancy part (the variants), folded into the
-    returned factor as t^2(nu) / t^2(N - p) (three variants alone: 10.1 / 3.84; 1 without
-    discrepancy)."""
+    cluster-robust over the model-based variance of that parameter, at least 1. The profile
+    interval's threshold (chi^2 s^2) is scaled by it, as the continuous parameters take
+    the larger of the two variances. The model-form discrepancy is not in it: it shifts
+    the estimate rather than flattening the profile (grid_shift_variance, widen)."""
     Jx = np.column_stack([J, (r_nb - r) / step])
     _, C_diag, *_ = uncertainty.covariance(Jx, r)
-    if not (np.isfinite(C_diag[-1]) and C_diag[-1] > 0):
-        return 1.0
     C_rob, _ = uncertainty.robust_covariance(Jx, r, clusters)
-    var = max(C_diag[-1], C_rob[-1, -1])
-    factor = 1.0
-    if discrepancy is not None and np.size(discrepancy):
-        Jd = Jx if null is None else np.column_stack([J, (null[0] - r) / null[1]])
-        v_d = float(uncertainty.nuisance_covariance(Jd, np.asarray(discrepancy))[-1, -1])
-        dof_n = max(len(r) - Jx.shape[1], 1)
-        dof = (var + v_d) ** 2 / (var ** 2 / dof_n + v_d ** 2 / np.shape(discrepancy)[1])
-        factor = float((stats.t.ppf(0.975, dof) / stats.t.ppf(0.975, dof_n)) ** 2)
-        var += v_d
-    return float(max(1.0, factor * var / C_diag[-1]))
+    ratio = C_rob[-1, -1] / C_diag[-1] if np.isfinite(C_diag[-1]) and C_diag[-1] > 0 else 1.0
+    return float(max(1.0, ratio))
+
+
+def grid_shift_variance(J, r, secant, discrepancy) -> float:
+    """The variance (squared units of the grid parameter) of the estimate's shift under
+    the model-form discrepancy: N (railfem.identify.problem.Problem.discrepancy_columns,
+    one column per variant of the base, scaled by sqrt(factor / n)) projected by least
+    squares on ``secant`` (d r / d value) with the columns J held free
+    (uncertainty.nuisance_covariance): sum over the variants of their shift squared / n.
+
+    This is the model-form error in the grid parameter's own units: near a cut-on the
+    variants' level differences are a shift of the cut-on, and their projection on a
+    parameter that moves the cut-on (a foot thickness) is the thickness change that would
+    make the same shift. The secant is the one from the parameter's null value (the
+    effect's start) to the estimate (_null): the variants' differences are those of the
+    base, at the null value, and lie at the base's cut-on; a neighbour's secant at a foot
+    3.5 mm thicker moves a cut-on 400 Hz away from them and sees almost none of them."""
+    if discrepancy is None or not np.size(discrepancy):
+        return 0.0
+    Jd = np.column_stack([J, secant])
+    return float(uncertainty.nuisance_covariance(Jd, np.asarray(discrepancy))[-1, -1])
+
+
+def widen(ci, value, var_shift: float, n_variants: int, level: float = 0.975) -> list:
+    """A profile interval ``ci`` about ``value`` widened by the discrepancy's shift of the
+    estimate: each side's half-width h becomes sqrt(h^2 + t^2 var_shift), t Student's at
+    ``level`` with as many degrees of freedom as variants (the shift's variance is
+    estimated from them; three: t = 3.18). The two parts add as variances of independent
+    errors; the discrepancy's is added outside the profile because it moves the
+    estimate: the profile of a cut-on parameter on lines coarser than the peak is far
+    from a parabola (a foot 1 mm off puts a dip on a line: cost x 4), so a threshold
+    scaled by it would not widen the interval by the shift."""
+    if not var_shift > 0:
+        return list(ci)
+    q = float(stats.t.ppf(level, max(int(n_variants), 1))) ** 2 * var_shift
+    return [value - math.sqrt((value - ci[0]) ** 2 + q),
+            value + math.sqrt((ci[1] - value) ** 2 + q)]
+
+
+def _close_profile(prof, j, best, values, results, problem_for, x_base, s2) -> None:
+    """Extend the profile of grid parameter j (position in the combination ``best``) by
+    the grid's next values beyond a side its interval leaves open, one at a time, until
+    the interval closes there or the grid ends (prof updated in place). The profile holds
+    the best value's neighbours only; an interval widened by the discrepancy
+    (grid_inflation) can reach past them, and an interval cut at the last value profiled
+    is not the interval."""
+    grid = sorted(values[j])
+    for _ in range(len(grid)):
+        iv = interval_from_profile(prof, s2 * prof.get("inflation", 1.0))
+        lo_open = iv["ci95"][0] <= min(prof["values"]) and prof["value"] > grid[0]
+        hi_open = iv["ci95"][1] >= max(prof["values"]) and prof["value"] < grid[-1]
+        nxt = ([v for v in grid if v < min(prof["values"])][-1:] if lo_open else []) + \
+            ([v for v in grid if v > max(prof["values"])][:1] if hi_open else [])
+        if not nxt:
+            break
+        for v in nxt:
+            combo = best[:j] + (v,) + best[j + 1:]
+            if combo not in results or results[combo][2] is None:
+                results[combo] = fit_fixed(problem_for(combo), x_base)
+            prof["values"].append(float(v))
+            prof["cost"].append(float(results[combo][1]))
+        order = np.argsort(prof["values"])
+        prof["values"] = [prof["values"][i] for i in order]
+        prof["cost"] = [prof["cost"][i] for i in order]
+    prof.update(interval_from_profile(prof, s2 * prof.get("inflation", 1.0)))
 
 
 def _null(effects, key, best, j, problem_for, x):
@@ -356,8 +403,7 @@ def profile_inflation(o: Outcome, key, prof: dict) -> float:
     vn = _nearest_other(prof["values"], o.grid[key])
     r = pb.residual(o.x)
     r_nb = regrid(pb, {**pb.model.grid, key: vn}).residual(o.x)
-    return grid_inflation(_jacobian(pb, o.x), r, r_nb, vn - o.grid[key], pb.clusters(),
-                          pb.discrepancy_columns())
+    return grid_inflation(_jacobian(pb, o.x), r, r_nb, vn - o.grid[key], pb.clusters())
 
 
 def _profile_grid(keys, values, best, results, problem_for, x_base, refine_steps):
