@@ -48,6 +48,9 @@ def parse_args(argv=None):
                    help="diagnose up to this frequency (Hz; default the whole dataset)")
     p.add_argument("--old", type=Path, default=None,
                    help="a checkout of railfem (the code before) to run side by side")
+    p.add_argument("--new", type=Path, default=None,
+                   help="a checkout of railfem to run as the new code (default: the one "
+                        "installed)")
     p.add_argument("--parallel", action="store_true",
                    help="run the old and the new code at the same time (CPU times are each "
                         "run's own; the wall times then share the machine)")
@@ -69,8 +72,10 @@ def run_one(args) -> None:
     g = rec["groups"][0]
     path = Path(out) / "diagnosis.json"
     n = len(json.loads(path.read_text())["candidates"])
+    import railfem
+
     print(json.dumps({"seconds": g["seconds"], "verdict": g["verdict"], "chosen": g["chosen"],
-                      "candidates": n, "diagnosis": str(path)}))
+                      "candidates": n, "diagnosis": str(path), "code": railfem.__file__}))
 
 
 def start(args, model: str, code: Path | None, out: Path):
@@ -135,8 +140,7 @@ def compare(old_json: str, new_json: str) -> str:
 def main(argv=None):
     args = parse_args(argv)
     limit_threads(args.threads)
-    if args.one:
-        sys.path.insert(0, str(HERE.parents[0]))
+    if args.one:  # the code on PYTHONPATH (--old, --new) or the installed one
         run_one(args)
         return
     from railfem.io import read_measurement
@@ -156,7 +160,7 @@ def main(argv=None):
     tmp = Path(tempfile.mkdtemp(prefix="bench_diagnosis_"))
     notes = []
     for model in args.models:
-        runs = [("new", None)] + ([("old", args.old)] if args.old else [])
+        runs = [("new", args.new)] + ([("old", args.old)] if args.old else [])
         got = {}
         if args.parallel:  # side by side: each one's CPU time is its own
             procs = {tag: start(args, model, code, tmp / f"{model}_{tag}") for tag, code in runs}
@@ -175,6 +179,7 @@ def main(argv=None):
         if "old" in got:
             notes.append(f"  {model}: diagnosis.json old vs new: "
                          + compare(got["old"]["diagnosis"], got["new"]["diagnosis"]))
+        notes += [f"  {model} {tag}: railfem from {got[tag]['code']}" for tag, _ in runs]
     text = "\n".join(lines + [""] + notes) + "\n"
     print(text)
     from railfem.atomic import write_text
