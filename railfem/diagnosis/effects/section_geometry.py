@@ -20,8 +20,9 @@ the free section), which is 0.1-0.8 mm of foot. Where the two share the band, th
 diagnosis reads the discrepancy in the effect's own units: the foot thickness's interval
 carries the variants' shift of the estimate along the secant from the nominal foot
 (railfem.diagnosis.refit.grid_shift_variance, widen), and the held-out gate asks the
-estimate to lie outside the 95 % range of that shift (railfem.diagnosis.residual.along_discrepancy): a
-foot change that only absorbs another mesh's cut-on offset is not claimed."""
+estimate to lie outside the 95 % range of that shift
+(railfem.diagnosis.residual.along_discrepancy): a foot change that only absorbs another
+mesh's cut-on offset is not claimed."""
 from dataclasses import replace
 
 from railfem.diagnosis.effects import Effect, EffectParameter
@@ -30,14 +31,15 @@ from railfem.rail.profiles import MODIFY_LIMITS, modified_name
 #: foot thickness changes profiled (m), refined at the parabola through the best value and
 #: its neighbours (each value is a mesh and a WFE kernel); the ends lie beyond rolling
 #: tolerance and ordinary wear, so that a plausible foot is bracketed (a best value at an
-#: end is not refined): the low end is the parameter's bound, the high end 1 mm beyond
-#: 4 mm, as another discretisation's cut-on reads as up to +1 mm of foot (a foot 2.5 mm
+#: end is not refined): the low end is the parameter's bound, the high end 1 mm beyond 4
+#: mm, as another discretisation's cut-on reads as up to +1 mm of foot (a foot 2.5 mm
 #: thicker in a straight-sided mesh: best 3.5 mm; with the grid ending at 4 mm the best
-#: value was that end, unrefined, and the held-out gain 54 % instead of 82 %). Steps of 1 mm (about 120 Hz of cut-on): the flapping peak and the
-#: dip beside it are about 100 Hz wide and ninth-octave lines lie 400-600 Hz apart there,
-#: so the misfit is not a parabola in the thickness over 2 mm steps (on data from another
-#: discretisation, a foot 2.5 mm thicker: cost 2340 at 0, 6940 at 2 mm, 1740 at 4 mm; the
-#: best value at the grid's end); over 1 mm steps it is near its minimum.
+#: value was that end, unrefined, and the held-out gain 54 % instead of 82 %). Steps of 1
+#: mm (about 120 Hz of cut-on): the flapping peak and the dip beside it are about 100 Hz
+#: wide and ninth-octave lines lie about 400 Hz apart there, so the misfit is not a parabola
+#: in the thickness over 2 mm steps (on data from another discretisation, a foot 2.5 mm
+#: thicker: cost 2340 at 0, 6940 at 2 mm, 1740 at 4 mm; the best value at the grid's end);
+#: over 1 mm steps it is near its minimum.
 FOOT_CHANGES = (-0.004, -0.003, -0.002, -0.001, 0.0, 0.001, 0.002, 0.003, 0.004, 0.005)
 NOMINAL = ("60E1", "UIC60")
 
