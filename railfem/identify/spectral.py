@@ -140,7 +140,7 @@ def spectral_coupling(kernel: DiscreteKernel, pattern, jr: np.ndarray,
                 g = G[:, :, rows] + sign * once[None, None, :] * G[:, :, mirror]
             lam_p, V = np.linalg.eig(w[rows, None] * a)
             d = np.linalg.solve(V, w[rows, None] * b)  # (mm, pair)
-            c = np.moveaxis((g.reshape(-1, len(rows)) @ V).reshape(g.shape[:2] + (-1,)), -1, 0)
+            c = np.einsum("opn,nm->mop", g, V)
             k1 = k0 + len(rows)
             lam[i, k0:k1] = lam_p
             residue[i, k0:k1] = c * d[:, None, :]
