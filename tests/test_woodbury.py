@@ -1,5 +1,5 @@
 """Deviating supports on the discrete tracks by a low-rank (Woodbury) update of the
-uniform coupling (railfem.track.coupling.SupportUpdate): against the direct coupling
+uniform coupling (railfem.track.woodbury.SupportUpdate): against the direct coupling
 solve of the same kernel with the deviating stiffness (each pair on its re-centred
 supports, as railfem.models solves a uniform track), its derivatives against central
 differences, and the diagnosis's evaluator on wfe-discrete against the door."""
@@ -11,7 +11,8 @@ import pytest
 import railfem as rf
 from railfem import models
 from railfem.spec import RailSpec
-from railfem.track.coupling import SupportUpdate, couple_discrete
+from railfem.track.coupling import couple_discrete
+from railfem.track.woodbury import SupportUpdate
 from railfem.track.supports import dynamic_stiffness
 
 F = np.array([80.0, 250.0, 700.0, 1500.0])

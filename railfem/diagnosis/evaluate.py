@@ -6,7 +6,7 @@
   coupling (railfem.identify.spectral): a support change, a pad law or a rail absorber then
   costs a short sum per frequency (milliseconds);
 * deviating supports on a discrete track (beam or WFE rail): the record's own kernel in a
-  Woodbury form (railfem.track.coupling.SupportUpdate): the uniform coupling's eigen form
+  Woodbury form (railfem.track.woodbury.SupportUpdate): the uniform coupling's eigen form
   plus a low-rank update of rank (springs of the deviating supports), with closed-form
   derivatives; each pair on its re-centred supports as for the uniform track;
 * anything else (a shifted geometry with deviations, lateral springs, the periodic and
@@ -42,7 +42,7 @@ from railfem import models
 from railfem.diagnosis.data import is_lateral
 from railfem.identify.forward import Geometry, SpectralEngine, checked_coupling, door_receptance
 from railfem.identify.spectral import SpectralCoupling
-from railfem.track.coupling import SupportUpdate
+from railfem.track.woodbury import SupportUpdate
 from railfem.track.sleeper import CASES as LOAD_CASES
 from railfem.track.supports import SupportParameters, dynamic_stiffness, horizontal_support
 
@@ -234,7 +234,7 @@ class Evaluator:
 
     def _deviations(self, spec, record, shift, gradient: bool = False):
         """A discrete track with deviating supports: the uniform track's eigen form plus
-        a low-rank (Woodbury) update (railfem.track.coupling.SupportUpdate); exact."""
+        a low-rank (Woodbury) update (railfem.track.woodbury.SupportUpdate); exact."""
         su, pairs = self._update(spec, record, shift)
         uni = spec.replace(deviations=())
         w = 2 * np.pi * record.fit.frequency

@@ -162,7 +162,7 @@ def deviation_refusal(kind) -> str:
     """Why an effect with deviating supports (needs 'deviations') cannot be tried on the
     model kind ``kind`` (railfem.spec.ModelKind); '' where it can: the discrete tracks
     (beam and WFE rail) take deviations as a low-rank update of their coupling
-    (railfem.track.coupling.SupportUpdate)."""
+    (railfem.track.woodbury.SupportUpdate)."""
     if kind.is_periodic:
         return ("a deviating support breaks the periodicity the periodic model is built on "
                 "(one cell, Floquet sums over identical supports); as a deviation on a finite "
