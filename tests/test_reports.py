@@ -162,7 +162,7 @@ def test_report_of_an_unexplained_residual_says_where_and_what_next(tmp_path, ca
     """An effect outside the library (a softer rail): the report and the printed summary
     name the dominant bands with their RMS and what to try next (another model for what a
     beam skips, random_support, a band limit)."""
-    from railfem.jobs.diagnose import dominant_bands
+    from railfem.io.diagnosis_report import dominant_bands
 
     src, run, md, s = _diagnose(tmp_path, "rail_stiffness", ["pad_frequency"])
     assert s["verdict"] != "explained"
@@ -180,7 +180,7 @@ def test_report_of_an_unexplained_residual_says_where_and_what_next(tmp_path, ca
 
 
 def test_open_grid_interval_is_shown_open():
-    from railfem.jobs.diagnose import interval
+    from railfem.io.diagnosis_report import interval
 
     p = {"ci95": [0.16, 0.24], "reason": "profile over the grid, open on the high side"}
     assert interval(p) == "[0.16, ≥ 0.24 (grid edge)]"
