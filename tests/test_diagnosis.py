@@ -203,7 +203,7 @@ def test_profile_interval_is_the_parabola_over_the_bracket_and_holds_the_estimat
     interval is v0 +- sqrt(3.84 s2 / a) within 2 % of its half-width and holds the best
     point (the parabola through the best three clustered points, the rule before, gave a
     half-width 2.7 times too small here)."""
-    from railfem.diagnosis.refit import interval_from_profile
+    from railfem.diagnosis.intervals import interval_from_profile
 
     a, v0, s2 = 4.0e4, 0.1603, 1.0
     rng = np.random.default_rng(2)
@@ -223,7 +223,7 @@ def test_grid_inflation_sees_shared_noise_and_is_one_on_white_noise():
     """A grid parameter's column in a linear least squares: noise shared by the 12 entries
     of each cluster inflates its variance (robust / model-based ~ 1 + 11 rho, here ~ 6);
     on white noise the factor stays near 1 (never below)."""
-    from railfem.diagnosis.refit import grid_inflation
+    from railfem.diagnosis.intervals import grid_inflation
 
     rng = np.random.default_rng(3)
     n_cl, per = 40, 12

@@ -283,7 +283,7 @@ def test_the_grid_interval_widens_by_the_variants_shift_with_their_t_quantile():
     shifts the estimate by exactly a_j): the shift's variance is sum a_j^2 whatever the
     noise; the interval's half-widths h become sqrt(h^2 + t^2(0.975, 3) sum a_j^2)
     (t = 3.182); no discrepancy leaves them as they are."""
-    from railfem.diagnosis.refit import grid_shift_variance, widen
+    from railfem.diagnosis.intervals import grid_shift_variance, widen
 
     rng = np.random.default_rng(4)
     n = 480
@@ -306,7 +306,7 @@ def test_the_shift_is_projected_on_the_secant_it_is_given():
     discrepancy column orthogonal to the local secant (and the other columns) adds nothing
     projected on it, and its full shift (N = a h: exactly a) projected on the secant from
     the null value, h."""
-    from railfem.diagnosis.refit import grid_shift_variance
+    from railfem.diagnosis.intervals import grid_shift_variance
 
     n = 480
     xg = np.linspace(0, 1, n)

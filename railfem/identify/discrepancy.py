@@ -41,7 +41,7 @@ the candidate's own parameter (a foot 3.5 mm thicker: 0.5 mm from the straight-e
 variant, under 0.1 mm from the others), the frequency-warp reading of the discrepancy
 without a warp model. The diagnosis judges the candidate by it
 (railfem.diagnosis.residual.along_discrepancy) and widens a profiled parameter's interval
-by it (railfem.diagnosis.refit.widen); continuous parameters take it through
+by it (railfem.diagnosis.intervals.widen); continuous parameters take it through
 Problem.discrepancy_columns. Two alternatives were weighed and not taken: a band-by-band
 gate (a change over its band's s_d^2) lets any change pass in bands the variants barely
 move (s_d^2 of 0.001 dB^2 at 100 Hz) and does not separate the two shifts above; a

@@ -19,7 +19,7 @@ discretisation variants of the base shift it by 15-100 Hz (straight edges about 
 the free section), which is 0.1-0.8 mm of foot. Where the two share the band, the
 diagnosis reads the discrepancy in the effect's own units: the foot thickness's interval
 carries the variants' shift of the estimate along the secant from the nominal foot
-(railfem.diagnosis.refit.grid_shift_variance, widen), and the held-out gate asks the
+(railfem.diagnosis.intervals.grid_shift_variance, widen), and the held-out gate asks the
 estimate to lie outside the 95 % range of that shift
 (railfem.diagnosis.residual.along_discrepancy): a foot change that only absorbs another
 mesh's cut-on offset is not claimed."""
