@@ -56,6 +56,15 @@ LATERAL_MODEL = "wfe-periodic"
 log = logging.getLogger("diagnose_sbb")
 
 
+def fitted_text(e: dict) -> tuple[str, str]:
+    """A screened candidate's fitted values with their 95 % intervals, and 'yes' or 'no
+    (why)' for its plausibility: the two text cells of the candidate tables."""
+    par = "; ".join(f"{k} {v['value']:.3g}" + (f" [{v['ci95'][0]:.3g}, {v['ci95'][1]:.3g}]"
+                                               if v.get("ci95") else "")
+                    for k, v in e["params"].items())
+    return par, "yes" if e["plausible"] else f"no ({e['implausible_why']})"
+
+
 def groups(rows, direction="z"):
     out: dict = {}
     for r in rows:
@@ -290,11 +299,7 @@ def markdown_lateral(results, command, cost=None) -> str:
             if e is None:
                 L.append(f"| {g['group']} | {base} | {n} | failed or not tried | | | |")
                 continue
-            par = "; ".join(
-                f"{k} {v['value']:.3g}" + (f" [{v['ci95'][0]:.3g}, {v['ci95'][1]:.3g}]"
-                                           if v.get("ci95") else "")
-                for k, v in e["params"].items())
-            why = "yes" if e["plausible"] else f"no ({e['implausible_why']})"
+            par, why = fitted_text(e)
             L.append(f"| {g['group']} | {base} | {n} | {e['delta_bic']:.1f} | "
                      f"{fmt(e['held_reduction'])} ({fmt(e['held_p'])}) | {why} | {par} |")
     for tag in ("lateral", "vertical"):
@@ -401,11 +406,7 @@ def markdown(results, command, lateral=None) -> str:
             if e is None:
                 L.append(f"| {g['group']} | {n} | not screened | | | |")
                 continue
-            par = "; ".join(
-                f"{k} {v['value']:.3g}" + (f" [{v['ci95'][0]:.3g}, {v['ci95'][1]:.3g}]"
-                                           if v.get("ci95") else "")
-                for k, v in e["params"].items())
-            why = "yes" if e["plausible"] else f"no ({e['implausible_why']})"
+            par, why = fitted_text(e)
             L.append(f"| {g['group']} | {n} | {e['delta_bic']:.1f} | "
                      f"{fmt(e['held_reduction'])} ({fmt(e['held_p'])}) | {why} | {par} |")
     L += ["", "## RMS per band before → after (dB), per group", "",
