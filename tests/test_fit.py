@@ -279,7 +279,7 @@ def test_kernel_parameter_estimate_is_the_minimum_of_its_final_profile():
 def test_stiffness_profile_resolves_its_interval(clean_hammer):
     """A well-determined kp (1 % noise): its interval is far narrower than the first grid
     step, so the profile adds points until at least 5 lie within the 95 % threshold."""
-    from railfem.identify.fit import CHI2_95
+    from railfem.identify.profiling import CHI2_95
 
     Y0, pos = simulate("timoshenko-continuous")
     res = fit(measurement(noisy(Y0, 0.01, 0), pos), "timoshenko-continuous", parameters=FAST,

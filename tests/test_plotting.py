@@ -452,7 +452,7 @@ def test_fit_of_a_table_row_names_the_row_in_its_titles(tmp_path, monkeypatch):
     assert "row 1" in title and "B3" in title and "2013-01-29" in title
     assert "B1" not in title and "2012-09-12" not in title
     # the profile figure, drawn by railfem.plotting now
-    from railfem.identify.fit import CHI2_95
+    from railfem.identify.profiling import CHI2_95
 
     (ax,) = profile_axes
     assert ax.get_xlabel() == "kp (N/m)" and ax.get_xscale() == "log"

@@ -223,7 +223,7 @@ def test_coarse_profile_interval_follows_the_parabola():
     """A kernel-parameter profile has few points: delta chi^2 = 400 x^2 sampled at
     -0.5, -0.05, 0, 0.5 crosses 3.841 at +-0.098; a straight line from 0 to 0.5 would cross
     at 0.019 (too narrow); widened, the interval follows the parabola (exact here)."""
-    from railfem.identify.fit import CHI2_95, profile_interval
+    from railfem.identify.profiling import CHI2_95, profile_interval
 
     x = np.array([-0.5, -0.05, 0.0, 0.5])
     lo, hi, open_ = profile_interval(x, 400 * x ** 2)

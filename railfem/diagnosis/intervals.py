@@ -10,7 +10,7 @@ import numpy as np
 from scipy import stats
 
 from railfem.identify import uncertainty
-from railfem.identify.fit import CHI2_95
+from railfem.identify.profiling import CHI2_95
 
 
 def grid_inflation(J, r, r_nb, step, clusters) -> float:

@@ -12,10 +12,10 @@ import time
 import numpy as np
 
 from railfem.identify.data import decay_rate_target
-from railfem.identify.fit import (
-    DEFAULT_PARAMETERS, FIT_BOUNDS, Problem, base_spec, default_workers, fit, prebuild_nodes,
-)
+from railfem.identify.fit import DEFAULT_PARAMETERS, FIT_BOUNDS, base_spec, fit
 from railfem.identify.forward import ForwardModel, Geometry
+from railfem.identify.problem import Problem
+from railfem.identify.profiling import default_workers, prebuild_nodes
 from railfem.params import ParameterSpace
 
 log = logging.getLogger(__name__)

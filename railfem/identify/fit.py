@@ -69,10 +69,9 @@ from railfem.identify import uncertainty
 from railfem.identify.base import BASE_PARAMETERS, default_base, describe_base
 from railfem.identify.forward import ForwardModel, Geometry, door_receptance, slow_names
 from railfem.identify.problem import Problem, Scale, used_rows, weighted_rows
-from railfem.identify.profiling import (  # noqa: F401 (re-exported: CHI2_95, ...)
-    CHI2_95, PROFILE_MIN_INSIDE, PROFILE_ROUNDS, default_workers, fit_with_slow,
-    interval_from_slow_profile, prebuild_nodes, profile, profile_interval, refine_points,
-    reprofile, run_tasks, slow_profile_summary, solve_free, start_task,
+from railfem.identify.profiling import (
+    default_workers, fit_with_slow, interval_from_slow_profile,
+    profile, reprofile, run_tasks, slow_profile_summary, solve_free, start_task,
 )
 from railfem.measurement import DecayRateMeasurement, HammerMeasurement
 from railfem.params import ParameterSpace

@@ -34,7 +34,7 @@ __all__ = ["Progress", "progress_logger", "progress_bar_enabled", "LogProgress",
 # ----------------------------------------------------------------------- progress
 ETA_AFTER = 3  # steps timed before a time left is given (the first one holds the set-up)
 #: the fit's steps as progress bars (watch_progress): multi-start points, kernels,
-#: profile points (railfem.identify.fit.run_tasks) and campaign rows
+#: profile points (railfem.identify.profiling.run_tasks) and campaign rows
 FIT_PROGRESS = (
     ("railfem.identify.fit", r"^fit: (?P<what>.+?) (?P<done>\d+)/(?P<total>\d+) done", {}),
     ("railfem.identify.campaign", r"done, (?P<done>\d+)/(?P<total>\d+),",

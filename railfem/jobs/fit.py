@@ -33,7 +33,8 @@ import numpy as np
 from ..atomic import prepare_output_dir, write_text_atomic
 from ..identify.campaign import fit_campaign
 from ..identify.data import model_quantities
-from ..identify.fit import CHI2_95, DEFAULT_PARAMETERS, DISCREPANCY, PROFILED, fit
+from ..identify.fit import DEFAULT_PARAMETERS, DISCREPANCY, PROFILED, fit
+from ..identify.profiling import CHI2_95
 from ..io.data import read_data
 from .common import FIT_PROGRESS, watch_progress
 

@@ -35,7 +35,7 @@ def plot_profiles(profiles: dict, *, units: dict | None = None, threshold: float
                   axes=None):
     """Profile likelihoods, one panel per parameter: the rise of chi-square over its
     minimum against the parameter value (log axis), with the ``threshold`` of the 95 %
-    interval (e.g. railfem.identify.fit.CHI2_95) as a dashed line.
+    interval (e.g. railfem.identify.profiling.CHI2_95) as a dashed line.
 
     profiles : name -> {"value": (n,), "delta_chi2": (n,)} (a fit result's ``profiles``);
     units : name -> unit for the axis labels. axes : one Axes per profile. Returns the list
