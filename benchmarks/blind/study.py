@@ -1,12 +1,14 @@
 """The blind study: for a case of benchmarks/blind/generators.CASES and a seed, generate the
 data, diagnose them without telling the diagnosis the case, and score the outcome.
 
-    python -m benchmarks.blind.study OUT.jsonl CASE[,CASE] SEEDS [all] [--cross]  (e.g. 0-9)
+    python -m benchmarks.blind.study OUT.jsonl CASE[,CASE] SEEDS [all] [--cross] [--model M]
+                                                                         (SEEDS e.g. 0-9)
     python -m benchmarks.blind.study --table OUT.jsonl                   (the markdown table)
 
 (``all``: screen every effect of the library, random_support too, which the default
 search leaves out for its cost; the case random_support is always run that way.
-``--cross``: the data made by the cross-model generator, form='cross' of
+``--model``: the track model of the generator and the estimator (default
+generators.MODEL); ``--cross``: the data made by the cross-model generator, form='cross' of
 benchmarks/blind/generators.py, which differs from the estimator in model form; a clean
 case then counts as right when the verdict is 'consistent' or 'noise'.)
 
@@ -188,11 +190,12 @@ if __name__ == "__main__":
     logging.basicConfig(level=logging.WARNING)
     path, cases, seeds = sys.argv[1], sys.argv[2].split(","), _seeds(sys.argv[3])
     form = "cross" if "--cross" in sys.argv else "own"
-    rest = [a for a in sys.argv[4:] if a != "--cross"]
+    model = sys.argv[sys.argv.index("--model") + 1] if "--model" in sys.argv else g.MODEL
+    rest = [a for a in sys.argv[4:] if a not in ("--cross", "--model", model)]
     which = rest[0] if rest else None
     for case in cases:
         for seed in seeds:
-            row = run_case(case, seed, effects=which, form=form)
+            row = run_case(case, seed, model=model, effects=which, form=form)
             with open(path, "a", encoding="utf-8") as fh:
                 fh.write(json.dumps(row) + "\n")
             print(json.dumps({k: row[k] for k in ("case", "seed", "rank1", "verdict",
