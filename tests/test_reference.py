@@ -109,6 +109,15 @@ def test_a_reference_parameter_its_data_did_not_fix_stays_in_the_search_box():
     assert ref.bounds["kb"] == pytest.approx((5e6, 2e9))
 
 
+def test_a_base_parameter_is_changed_only_when_it_moved_from_the_reference_to_an_edge():
+    # SBB B4 against B5: eta_b of the reference sat on the box edge (5) and stayed there;
+    # it was reported as "eta_b +0 % against the reference"
+    assert not R.moved_to_edge(5.0, 5.0, (4.545, 5.0))
+    assert R.moved_to_edge(5.0, 4.77, (4.545, 5.0))       # pushed from inside to the edge
+    assert R.moved_to_edge(2.2e8, 3e8, (2.2e8, 4.1e8))
+    assert not R.moved_to_edge(3.1e8, 3e8, (2.2e8, 4.1e8))  # inside
+
+
 # ------------------------------------------------------------------ diagnoses
 
 

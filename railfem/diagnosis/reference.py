@@ -169,12 +169,20 @@ def changed_base(d, ref: BaseReference) -> list[str]:
     vals["eta_r"] = o.eta_r
     out = []
     for n in BASE_PARAMETERS:
-        lo, hi = (math.log10(b) for b in ref.bounds[n])
-        x = math.log10(vals[n])
-        if hi - lo > 0 and min(x - lo, hi - x) < EDGE * (hi - lo):
+        if moved_to_edge(vals[n], ref.values[n], ref.bounds[n]):
             out.append(f"{n} {100 * (vals[n] / ref.values[n] - 1):+.0f} % against the "
                        "reference (at the edge of the range it was held in)")
     return out
+
+
+def moved_to_edge(value: float, ref_value: float, bounds) -> bool:
+    """``value`` ended within EDGE of an edge of ``bounds`` (log scale) and away from the
+    reference's own value: a reference value on the search box's edge (a parameter its
+    data pushed there) that DATA leave where it is has not changed."""
+    lo, hi = (math.log10(b) for b in bounds)
+    x, x0 = math.log10(value), math.log10(ref_value)
+    tol = EDGE * (hi - lo)
+    return hi - lo > 0 and min(x - lo, hi - x) < tol and abs(x - x0) >= tol
 
 
 def what_changed(d) -> str:
