@@ -30,6 +30,10 @@ from railfem.track import kernelcache
 from railfem.identify.spectral import SpectralCoupling, check, spectral_coupling
 from railfem.params import ParameterSpace
 from railfem.spec import TrackSpec, spec_to_dict
+from railfem.track import wfe as track_wfe
+from railfem.track.coupling import couple_discrete
+from railfem.track.directional import DirectionalSpectral, directional_spectral
+from railfem.track.directions import directional_stiffness
 from railfem.track.supports import dynamic_stiffness
 
 log = logging.getLogger(__name__)
@@ -38,6 +42,7 @@ FAST = ("kp", "eta_p", "kb", "eta_b", "ms", "kp_lat", "eta_p_lat", "kp_long", "e
         "kb_lat", "eta_b_lat", "ms_lat")
 SLOW = ("eta_r", "pad_length")
 SPECTRAL_TOLERANCE = 1e-8  # largest relative difference to the direct coupling accepted
+PROBE_OMEGA = 2 * np.pi * np.array([7.0, 130.0, 2900.0])  # rad/s: see probe
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -74,6 +79,32 @@ def slow_names(space: ParameterSpace) -> tuple[str, ...]:
     if space.base.is_beam and space.base.kind.is_continuous:
         return ()
     return tuple(n for n in space.names if n in SLOW)
+
+
+def varied_directions(space: ParameterSpace) -> tuple[str, ...] | None:
+    """The directions ('z', 'y', 'x', 'r': railfem.models.spring_directions) whose support
+    stiffness the fitted support parameters of ``space`` change (the pad - sleeper -
+    ballast chain of each, railfem.track.directions.chain; on a track with lateral and
+    longitudinal springs the sleeper's horizontal fields kb_lat, eta_b_lat, ms_lat enter
+    both); None when a fitted parameter is neither a support nor a kernel parameter."""
+    sup = space.base.support
+    dirs = models.spring_directions(space.base)
+    out: set[str] = set()
+    for name in space.names:
+        if name in SLOW:
+            continue
+        if name not in FAST:
+            return None
+        value = getattr(sup, name)
+        other = replace(sup, **{name: value * 1.5 if value else 1.0})
+        out |= {d for d in dirs if probe(sup, d) != probe(other, d)}
+    return tuple(d for d in dirs if d in out)
+
+
+def probe(support, direction: str) -> tuple:
+    """The dynamic stiffness of ``support`` in ``direction`` at PROBE_OMEGA: what tells
+    two supports apart in that direction."""
+    return tuple(directional_stiffness(support, PROBE_OMEGA, direction))
 
 
 class DirectEngine:
@@ -124,6 +155,82 @@ class SpectralEngine:
         return a
 
 
+class DirectionalEngine:
+    """A uniform discrete WFE track whose fitted support parameters change the springs of
+    one ``direction`` only (e.g. the lateral chain on lateral data, varied_directions): the
+    springs of the other directions held at spec's stiffness, the coupling in eigen form
+    in that direction's stiffness (railfem.track.directional), so receptance(spec) costs a
+    short sum per frequency. ``names``: the fitted parameters (their values are not part
+    of the engine; every other support value is, and receptance refuses a spec that
+    changes one)."""
+
+    def __init__(self, spec: TrackSpec, geometry: Geometry, direction: str, names,
+                 cache=False, progress=None):
+        g = self.geometry = geometry
+        self.kernel_values = kernel_values(spec)
+        self.direction = direction
+        self.omega = 2 * np.pi * g.frequency
+        self.held = held_chains(spec, direction)
+        store = kernelcache.resolve(cache)
+        canon = spec.replace(**{n: 1.0 for n in names if n in FAST}, name="fit")
+        key = kernelcache.content_key("directional-fit", __version__, direction,
+                                      str(spec_to_dict(canon)), g.frequency, g.force_x,
+                                      float(g.sensor_x), g.outputs, g.force)
+
+        def compute():
+            kernel, jr, jf = models.discrete_kernel(spec, g.frequency, g.force_x,
+                                                    [g.sensor_x], outputs=g.outputs,
+                                                    force=g.force, cache=cache,
+                                                    progress=progress)
+            form = checked_directional(kernel, spec, jr[0], jf[0], direction)
+            return {"lam": form.lam, "residue": form.residue, "direct": form.direct}
+
+        arrays = store.cached(key, compute)
+        self.form = DirectionalSpectral(frequency=g.frequency, lam=arrays["lam"],
+                                        residue=arrays["residue"], direct=arrays["direct"],
+                                        direction="xyzr".index(direction))
+
+    def receptance(self, spec: TrackSpec) -> np.ndarray:
+        if held_chains(spec, self.direction) != self.held:
+            raise ValueError(f"the {self.direction!r} eigen form holds the other "
+                             "directions' supports at the base's values; this spec changes "
+                             "them (fit those parameters with engine='direct')")
+        k = directional_stiffness(spec.support, self.omega, self.direction)
+        return self.form.receptance(k)
+
+
+def held_chains(spec: TrackSpec, direction: str) -> tuple:
+    """The support stiffness (probe) of spec's spring directions but ``direction``: what a
+    DirectionalEngine holds."""
+    return tuple(probe(spec.support, d) for d in models.spring_directions(spec)
+                 if d != direction)
+
+
+def checked_directional(kernel, spec: TrackSpec, jr, jf, direction: str) -> DirectionalSpectral:
+    """The eigen form of ``kernel``'s coupling (spec's layout, railfem.track.directional) in
+    the stiffness of ``direction`` at the pairs (jr, jf), checked against the coupling
+    solve (railfem.track.coupling.couple_discrete) at spec's stiffness and at a ten times
+    softer one in that direction: a RuntimeError beyond SPECTRAL_TOLERANCE."""
+    omega = 2 * np.pi * np.asarray(kernel.frequency, dtype=float)
+    lay = spec.layout()
+    pattern = lay.springs().weight
+    K = track_wfe.spring_stiffness(lay, omega, kernel)
+    form = directional_spectral(kernel, K, pattern, direction, jr, jf)
+    code = "xyzr".index(direction)
+    k0 = directional_stiffness(spec.support, omega, direction)
+    err = 0.0
+    for k in (k0, k0 / 10):
+        Kk = np.array(K, dtype=complex)
+        Kk[:, :, code] = k[:, None] * pattern[None, :]
+        ref = couple_discrete(kernel, Kk)[:, :, np.ravel(jr), np.ravel(jf)]
+        scale = np.abs(ref).max(axis=(1, 2), keepdims=True)
+        err = max(err, float((np.abs(form.receptance(k) - ref) / scale).max()))
+    if err > SPECTRAL_TOLERANCE:
+        raise RuntimeError(f"the eigen form in the {direction!r} stiffness differs from the "
+                           f"coupling solve by {err:.1e} (relative) for {spec.model}")
+    return form
+
+
 def checked_coupling(kernel, spec: TrackSpec, jr, jf, supports, frequency) -> SpectralCoupling:
     """The eigen form (railfem.identify.spectral) of the coupling of ``kernel`` (the
     parameter-free kernel of spec's layout at ``frequency``, Hz) at the pairs (jr, jf),
@@ -158,8 +265,11 @@ def kernel_values(spec: TrackSpec) -> tuple[float, float]:
 class ForwardModel:
     """Receptance (nf, n_out, n_force) at ``geometry`` for vectors of ``space``.
 
-    engine: 'auto' (spectral for uniform discrete models, the door otherwise), 'spectral'
-    or 'direct'. cache: kernel cache as in railfem.models (False: memory only)."""
+    engine: 'auto' (spectral for uniform discrete models with vertical springs and load;
+    eigen for uniform discrete WFE models with springs in several directions whose fitted
+    support parameters change one direction only, e.g. the lateral chain on lateral data:
+    varied_directions; the door otherwise), 'spectral', 'eigen' or 'direct'. cache: kernel
+    cache as in railfem.models (False: memory only)."""
 
     def __init__(self, space: ParameterSpace, geometry: Geometry, *, engine: str = "auto",
                  cache=False, progress=None):
@@ -168,12 +278,22 @@ class ForwardModel:
         # the eigen form needs one support stiffness per frequency: vertical springs only
         spectral_ok = (space.base.kind.is_discrete and space.base.uniform
                        and space.base.support_directions == "z" and geometry.force == "head")
+        varied = varied_directions(space)
+        eigen_ok = (space.base.kind.is_discrete and space.base.uniform and space.base.is_wfe
+                    and models.spring_directions(space.base) != "z" and varied is not None
+                    and len(varied) == 1)
+        self.direction = varied[0] if eigen_ok else None
         if engine == "auto":
-            engine = "spectral" if spectral_ok else "direct"
+            engine = "spectral" if spectral_ok else ("eigen" if eigen_ok else "direct")
         if engine == "spectral" and not spectral_ok:
             raise ValueError(f"engine 'spectral' needs a uniform discrete model, got {model!r}")
-        if engine not in ("spectral", "direct"):
-            raise ValueError(f"engine = {engine!r}: use 'auto', 'spectral' or 'direct'")
+        if engine == "eigen" and not eigen_ok:
+            raise ValueError(f"engine 'eigen' needs a uniform discrete WFE model with springs "
+                             "in several directions whose fitted support parameters change "
+                             f"one direction only (they change {varied})")
+        if engine not in ("spectral", "eigen", "direct"):
+            raise ValueError(f"engine = {engine!r}: use 'auto', 'spectral', 'eigen' or "
+                             "'direct'")
         self.kind = engine
         self.slow = slow_names(space)
         self._engines: dict = {}
@@ -188,13 +308,18 @@ class ForwardModel:
         if key not in self._engines:
             log.info("fit: building the %s engine for eta_r = %.4g, pad length = %.3g m",
                      spec.model, *key)
-            self._engines[key] = SpectralEngine(spec, self.geometry, self.cache,
-                                                self.progress)
+            if self.kind == "eigen":
+                self._engines[key] = DirectionalEngine(spec, self.geometry, self.direction,
+                                                       self.space.names, self.cache,
+                                                       self.progress)
+            else:
+                self._engines[key] = SpectralEngine(spec, self.geometry, self.cache,
+                                                    self.progress)
         return self._engines[key]
 
     def add_engine(self, engine) -> None:
         """Adopt an engine built elsewhere (e.g. in a worker process)."""
-        if self.kind == "spectral":
+        if self.kind in ("spectral", "eigen"):
             self._engines[engine.kernel_values] = engine
 
     def slow_values(self, i: int) -> list[float]:

@@ -1,0 +1,85 @@
+"""Lateral decay-rate fits: the forward model picks the eigen form in the lateral stiffness
+(railfem.identify.forward.DirectionalEngine) when the fitted support parameters change the
+lateral springs only, and it gives the receptances and EN 15461 decay rates of the direct
+engine (railfem.models.receptance, one coupling solve per evaluation: another code path)
+for several parameter vectors; where the fitted parameters change two directions (the
+sleeper's horizontal fields with longitudinal springs) the direct engine is kept."""
+import numpy as np
+import pytest
+
+import railfem as rf
+from railfem.identify.data import model_quantities
+from railfem.identify.fit import prepare
+from railfem.identify.forward import ForwardModel, varied_directions
+from railfem.measurement import DecayRateMeasurement
+from railfem.params import ParameterSpace
+from railfem.spec import RailSpec
+
+BANDS = np.array([250.0, 315.0, 400.0, 500.0])
+LATERAL = ("kp_lat", "eta_p_lat", "kb_lat", "eta_b_lat")
+
+
+def small_base(directions="zy"):
+    """A short, coarse track (cheap kernels) with supports acting in ``directions``."""
+    return rf.preset("site", support_directions=directions, n_supports=41, pad_length=0.0,
+                     n_rows=1, rail=RailSpec(h=0.02))
+
+
+def lateral_row():
+    return DecayRateMeasurement(frequency=BANDS, decay_rate=[3.0, 2.5, 2.0, 1.5],
+                                direction="h")
+
+
+def forward_pair(directions, names):
+    """(auto forward model, direct forward model, target) of the lateral row."""
+    auto, target = prepare(lateral_row(), "wfe-discrete", parameters=names,
+                           base=small_base(directions), bounds=None, use=None, cache=False,
+                           forward=None, target_options=None)
+    direct = ForwardModel(auto.space, auto.geometry, engine="direct", cache=False)
+    return auto, direct, target
+
+
+def test_auto_picks_the_eigen_form_where_one_direction_varies():
+    def kind(directions, names):
+        space = ParameterSpace(small_base(directions), names)
+        return varied_directions(space), ForwardModel(space, _geometry()).kind
+
+    assert kind("zy", LATERAL) == (("y",), "eigen")
+    assert kind("zy", LATERAL + ("ms_lat", "eta_r")) == (("y",), "eigen")
+    # the sleeper's horizontal fields carry the longitudinal springs as well
+    assert kind("zyx", LATERAL) == (("y", "x"), "direct")
+    assert kind("zyx", ("kp_lat", "eta_p_lat")) == (("y",), "eigen")
+    # vertical parameters on a track with horizontal springs: the eigen form in z
+    assert kind("zyx", ("kp", "eta_p", "kb")) == (("z",), "eigen")
+    with pytest.raises(ValueError, match="one direction only"):
+        ForwardModel(ParameterSpace(small_base("zyx"), LATERAL), _geometry(), engine="eigen")
+
+
+def _geometry():
+    from railfem.identify.forward import Geometry
+
+    return Geometry(frequency=[300.0], outputs=("head_lateral",), sensor_x=0.3,
+                    force_x=[0.32, 0.9])
+
+
+@pytest.mark.parametrize("directions,names", [("zy", LATERAL),
+                                              ("zyx", ("kp_lat", "eta_p_lat"))])
+def test_eigen_engine_equals_the_direct_engine(directions, names):
+    auto, direct, target = forward_pair(directions, names)
+    assert auto.kind == "eigen" and direct.kind == "direct"
+    space = auto.space
+    rng = np.random.default_rng(3)
+    xs = [space.from_spec(space.base)] + [space.lower + (0.05 + 0.9 * rng.random(len(names)))
+                                          * (space.upper - space.lower) for _ in range(3)]
+    for x in xs:
+        a, b = auto.receptance(x), direct.receptance(x)
+        assert a.shape == b.shape == (len(target.frequency), 1, len(target.force_x))
+        scale = np.abs(b).max(axis=(1, 2), keepdims=True)
+        assert (np.abs(a - b) / scale).max() < 1e-8
+        da, db = model_quantities(target, a)["tdr"], model_quantities(target, b)["tdr"]
+        assert np.all(np.isfinite(db))
+        np.testing.assert_allclose(da, db, rtol=1e-8)
+    # the engine holds the other directions: a spec changing them is refused
+    engine = auto.engine(space.base)
+    with pytest.raises(ValueError, match="holds the other"):
+        engine.receptance(space.base.replace(kp=space.base.support.kp * 2))
