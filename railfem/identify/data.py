@@ -19,6 +19,7 @@ band's decay rate); a weight 0 leaves the band out.
 """
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -122,6 +123,9 @@ def model_quantities(target: Target, receptance: np.ndarray, power=None) -> dict
 def model_decay_rate(target: Target, Y: np.ndarray) -> np.ndarray:
     """(n_bands, n_out) EN 15461 decay rate of the model mobilities Y (nf, n_out, n_pos),
     on the data's bands with the positions the data used."""
+    fast = _fast_decay_rate(target, Y)
+    if fast is not None:
+        return fast
     power = iec61260.band_average(target.frequency, Y, target.bands) ** 2  # (b, o, pos)
     if target.tdr_used is not None:
         power = np.where(target.tdr_used, power, np.nan)
@@ -131,6 +135,86 @@ def model_decay_rate(target: Target, Y: np.ndarray) -> np.ndarray:
             target.bands.nominal, power[:, o, :], target.nominal_positions,
             point_offset=target.tdr_point_offset).decay_rate
     return D
+
+
+class _DecayPlan:
+    """What the model decay rate of a target needs besides the model (computed once per
+    target): the narrow-band points of each band in frequency order, and the (band,
+    sensor) rows grouped by the positions the data used, with their interval weights."""
+
+    def __init__(self, target: Target):
+        member = iec61260.band_index(target.frequency, target.bands)
+        members = [np.flatnonzero(member == k) for k in range(len(target.bands))]
+        x = np.asarray(target.nominal_positions, dtype=float)
+        offset = float(target.tdr_point_offset)
+        # an empty band (band_average warns) or positions en15461 refuses: the slow path
+        self.ok = bool(all(len(m) for m in members) and x.ndim == 1 and x.size >= 2
+                       and np.all(np.isfinite(x)) and x[0] == 0.0
+                       and (offset == 0.0 or (np.isfinite(offset) and 0.0 <= offset < x[1])))
+        if not self.ok:
+            return
+        x_w = x.copy()
+        x_w[0] = offset if offset != 0.0 else x[0]
+        # the j-th point of every band that has one: band mean = ((p0 + p1) + p2) / n,
+        # added in the order band_average's mean adds them
+        self.steps = [(np.array([k for k, m in enumerate(members) if len(m) > j]),
+                       np.array([m[j] for m in members if len(m) > j]))
+                      for j in range(max(len(m) for m in members))]
+        self.count = np.array([len(m) for m in members], dtype=float)[:, None, None]
+        n_b, n_o, n_p = len(members), len(target.outputs), x.size
+        used = (np.ones((n_b, n_o, n_p), bool) if target.tdr_used is None
+                else np.asarray(target.tdr_used, dtype=bool))
+        # the positions en15461 sums over for a finite model: the data's, the point
+        # always; none where the data left the point out (its power is then NaN)
+        keep = np.where(used[:, :, :1], used, False).reshape(n_b * n_o, n_p)
+        keep[:, 0] = True
+        self.groups = []
+        patterns, which = np.unique(keep, axis=0, return_inverse=True)
+        for g, pattern in enumerate(patterns):
+            if pattern.sum() < 2:
+                continue
+            xu = x_w[pattern]
+            gaps = np.diff(xu)
+            dx = np.empty_like(xu)
+            dx[0], dx[-1] = gaps[0] / 2.0, gaps[-1] / 2.0
+            dx[1:-1] = (gaps[:-1] + gaps[1:]) / 2.0
+            rows = np.flatnonzero(np.asarray(which).ravel() == g)
+            self.groups.append((rows, np.flatnonzero(pattern), dx))
+
+    def band_power(self, Y: np.ndarray) -> np.ndarray:
+        """iec61260.band_average(f, Y, bands) ** 2 to the last bit, Y (nf, o, pos): (b, o,
+        pos)."""
+        power = np.abs(Y) ** 2
+        acc = power[self.steps[0][1]].copy()
+        for k, i in self.steps[1:]:
+            acc[k] += power[i]
+        return np.sqrt(acc / self.count) ** 2
+
+
+_DECAY_PLANS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _fast_decay_rate(target: Target, Y: np.ndarray) -> np.ndarray | None:
+    """model_decay_rate without a Python loop over bands and sensors (a fit evaluates it
+    for every Jacobian column): the same operations in the same order as
+    iec61260.band_average and en15461.decay_rate_from_band_power (equal to the last bit);
+    None where that path would take a branch this one does not (an empty band, a model
+    band power that is not finite or not positive): the caller then takes it."""
+    plan = _DECAY_PLANS.get(target)
+    if plan is None:
+        plan = _DECAY_PLANS[target] = _DecayPlan(target)
+    if not plan.ok or Y.ndim != 3:
+        return None
+    power = plan.band_power(Y)
+    if not (np.all(np.isfinite(power)) and np.all(power[:, :, 0] > 0.0)):
+        return None
+    n_b, n_o, n_p = power.shape
+    P = power.reshape(n_b * n_o, n_p)
+    D = np.full(n_b * n_o, np.nan)
+    for rows, idx, dx in plan.groups:
+        terms = P[rows[:, None], idx[None, :]] / P[rows, :1] * dx  # ratio[used] * dx
+        D[rows] = en15461.DB_PER_NEPER_POWER / terms.sum(axis=1)
+    return D.reshape(n_b, n_o)
 
 
 def residuals(target: Target, receptance: np.ndarray) -> dict:
