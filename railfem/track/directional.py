@@ -59,8 +59,11 @@ class DirectionalSpectral:
         return -np.einsum("fm,fmop->fop", g, self.residue)
 
 
-def _family_part(kernel: DiscreteKernel, cols, K_sets, pattern, direction, jr, jf, i):
-    """(lam, residue, direct) of one family's springs ``cols`` at frequency i."""
+def _family_part(kernel: DiscreteKernel, cols, K_sets, pattern, direction, jr, jf, i,
+                 mirror: bool):
+    """(lam, residue, held) of one family's springs ``cols`` at frequency i: held (n_out,
+    n_pair) the share of the other directions' springs in the response (alpha_rO X_P).
+    ``mirror``: the even and odd parts of a mirror-symmetric layout solved separately."""
     n_s = kernel.shape[0]
     n_p = len(cols)
     d = kernel.spring_direction[cols]
@@ -71,27 +74,85 @@ def _family_part(kernel: DiscreteKernel, cols, K_sets, pattern, direction, jr, j
         n_s * n_p, -1)  # (springs, pair)
     G = kernel.rs[i][:, :, cols][kernel.rs_index[jr]]  # (pair, s, o, p)
     G = G.transpose(2, 0, 1, 3).reshape(n_out, len(jr), -1)  # (o, pair, springs)
-    direct = kernel.rP[i][kernel.rP_index[jr, jf]].T  # (o, pair)
     on = np.tile(d == direction, n_s)
-    Y, O = np.flatnonzero(on), np.flatnonzero(~on)
     w = (np.asarray(pattern, dtype=float)[:, None] * kernel.spring_weight[cols][None, :]
          ).ravel()
+    K = (K_sets[:, d] * kernel.spring_weight[cols][None, :]).ravel()
+    if not mirror:
+        return _reduced(alpha, B, G, on, w, K)
+    lam, res, held = [], [], 0.0
+    for R, JR, sg, m in mirror_parts(n_s, d):
+        sm = sg * m
+        part = _reduced(alpha[np.ix_(R, R)] + alpha[np.ix_(R, JR)] * sm[None, :],
+                        (B[R] + sg[:, None] * B[JR]) / 2, G[:, :, R] + G[:, :, JR] * sm,
+                        on[R], w[R], K[R])
+        lam.append(part[0])
+        res.append(part[1])
+        held = held + part[2]
+    return np.concatenate(lam), np.concatenate(res), held
+
+
+def _reduced(alpha, B, G, on, w, K):
+    """(lam, residue, held) of the springs ``on`` (the varied direction) with the others
+    (stiffness K[~on]) eliminated: alpha (n, n), B (n, pair), G (o, pair, n)."""
+    Y, O = np.flatnonzero(on), np.flatnonzero(~on)
+    held = 0.0
     if len(O):
-        K = (K_sets[:, d] * kernel.spring_weight[cols][None, :]).ravel()[O]
-        S = np.eye(len(O)) + K[:, None] * alpha[np.ix_(O, O)]
-        X = np.linalg.solve(S, K[:, None] * np.concatenate([alpha[np.ix_(O, Y)], B[O]],
-                                                           axis=1))
+        KO = K[O]
+        S = np.eye(len(O)) + KO[:, None] * alpha[np.ix_(O, O)]
+        X = np.linalg.solve(S, KO[:, None] * np.concatenate([alpha[np.ix_(O, Y)], B[O]],
+                                                            axis=1))
         XY, XP = X[:, :len(Y)], X[:, len(Y):]
         aYY = alpha[np.ix_(Y, Y)] - alpha[np.ix_(Y, O)] @ XY
         bY = B[Y] - alpha[np.ix_(Y, O)] @ XP
         gY = G[:, :, Y] - G[:, :, O] @ XY
-        direct = direct - np.einsum("opn,np->op", G[:, :, O], XP)
+        held = np.einsum("opn,np->op", G[:, :, O], XP)
     else:
         aYY, bY, gY = alpha[np.ix_(Y, Y)], B[Y], G[:, :, Y]
     lam, V = np.linalg.eig(w[Y, None] * aYY)
     dd = np.linalg.solve(V, w[Y, None] * bY)  # (m, pair)
     c = np.einsum("opn,nm->mop", gY, V)
-    return lam, c * dd[:, None, :], direct
+    return lam, c * dd[:, None, :], held
+
+
+def mirror_parts(n_s: int, codes) -> list:
+    """The even and odd parts of n_s spring sets mirrored about x = 0 (set q <-> n_s-1-q),
+    each set's springs of direction ``codes`` (x = 0 flips with the mirror): [(R, JR, sg,
+    m)] with R the representative springs (set-major flat indices), JR their mirror
+    images, sg the sign relating a part's value at JR to that at R, m 0 for a centre
+    set's spring (its own image) else 1."""
+    n_p = len(codes)
+    sign = np.where(np.asarray(codes) == 0, -1.0, 1.0)
+    n_h = n_s // 2
+    out = []
+    for sigma in (1.0, -1.0):
+        reps = [(q, p) for q in range(n_h) for p in range(n_p)]
+        if n_s % 2:  # the centre set keeps the components its mirror leaves unchanged
+            reps += [(n_h, p) for p in range(n_p) if sigma * sign[p] > 0]
+        if reps:
+            q, p = np.array(reps).T
+            out.append((q * n_p + p, (n_s - 1 - q) * n_p + p, sigma * sign[p],
+                        (q != n_s - 1 - q).astype(float)))
+    return out
+
+
+def is_mirrored(kernel: DiscreteKernel, pattern, K_all) -> bool:
+    """Whether the coupling is symmetric under x -> -x: springs at -x_s with equal shares
+    and stiffness, alpha_ss(-x) = s_p s_q alpha_ss(x) (s = -1 for longitudinal springs)."""
+    xs = kernel.spring_x
+    if len(xs) < 2 or not np.array_equal(np.round(xs, 12), -np.round(xs[::-1], 12)):
+        return False
+    pattern = np.asarray(pattern, dtype=float)
+    if not (np.array_equal(pattern, pattern[::-1]) and np.array_equal(K_all, K_all[:, ::-1])):
+        return False
+    u = np.round(kernel.ss_sep, 12)
+    j = np.searchsorted(u, -u)
+    if np.any(j >= len(u)) or not np.array_equal(u[np.minimum(j, len(u) - 1)], -u):
+        return False
+    sign = np.where(np.asarray(kernel.spring_direction) == 0, -1.0, 1.0)
+    scale = np.abs(kernel.ss).max(axis=(1, 2, 3), keepdims=True)
+    mirrored = kernel.ss[:, j] * (sign[:, None] * sign[None, :])[None, None]
+    return bool(np.all(np.abs(kernel.ss - mirrored) <= 1e-12 * scale))
 
 
 def directional_spectral(kernel: DiscreteKernel, stiffness, pattern, direction: str,
@@ -114,21 +175,25 @@ def directional_spectral(kernel: DiscreteKernel, stiffness, pattern, direction: 
                          f"or 4) = ({nf}, {n_s}, ...) with a component for {direction!r}")
     if not np.any(kernel.spring_direction == code):
         raise ValueError(f"the kernel has no springs acting in {direction!r}")
+    if code == 2 and np.any(kernel.spring_direction == 4):
+        raise ValueError("the kernel's vertical pair differences (the pad against the foot's "
+                         "roll) change with the vertical pad but would be held: vary the "
+                         "vertical chain by the direct coupling")
     if not np.all(np.isfinite(K_all)):
         raise ValueError("the held springs must have finite stiffness")
     jr, jf = np.asarray(jr).ravel(), np.asarray(jf).ravel()
     groups = [g for g in spring_families(kernel.ss)]
+    mirror = is_mirrored(kernel, pattern, K_all)
     lam, res, direct = [], [], []
     free = np.stack([kernel.rP[i][kernel.rP_index[jr, jf]].T for i in range(nf)])
     for i in range(nf):
-        parts = [_family_part(kernel, g, K_all[i], pattern, code, jr, jf, i)
+        parts = [_family_part(kernel, g, K_all[i], pattern, code, jr, jf, i, mirror)
                  for g in groups if np.any(kernel.spring_direction[g] == code)]
         held = [couple_family_direct(kernel, g, K_all[i], jr, jf, i)
                 for g in groups if not np.any(kernel.spring_direction[g] == code)]
         lam.append(np.concatenate([p[0] for p in parts]))
         res.append(np.concatenate([p[1] for p in parts]))
-        direct.append(free[i] - sum(free[i] - p[2] for p in parts)
-                      - sum(free[i] - h for h in held))
+        direct.append(free[i] - sum(p[2] for p in parts) - sum(free[i] - h for h in held))
     return DirectionalSpectral(frequency=np.asarray(kernel.frequency), lam=np.stack(lam),
                                residue=np.stack(res), direct=np.stack(direct),
                                direction=code)
