@@ -91,6 +91,9 @@ class FamilyOperators:
         self.m_data = _on_pattern(self.pattern, M)
         self.extra = None  # optional omega -> sparse stiffness (ordered DOFs), e.g. a foundation
         self._key = self._lossless = None
+        self.blocks = _diagonal_blocks(self.pattern, self.na)
+        self.Z_ap = _block_sum(self.na, (K1, "ap")).tocsr()[: self.na, self.na:]  # no M in it
+        self.B0r = self.B0.tocsr()
 
     def constant_matrix(self, omega: float, c: complex | None = None):
         """Z(omega) = c K0' - omega^2 M (+ extra(omega)), CSC; c defaults to 1 + i eta."""
@@ -101,6 +104,32 @@ class FamilyOperators:
         Z = sp.csc_matrix((c * self.k0_data - omega**2 * self.m_data, P.indices, P.indptr),
                           shape=P.shape)
         return Z if self.extra is None else (Z + self.extra(omega)).tocsc()
+
+    def factorised(self, omega, c: complex | None = None):
+        """solve(r) = Z^-1 r for Z = K0' - (omega^2 / c) M (+ extra(omega) / c): the
+        frequency matrix divided by c, so that its pencil partner is the real B0 for any loss
+        factor (c B0 / c). Z is block upper triangular in the (axial, in-plane) ordering (M
+        has no axial/in-plane coupling, K0' keeps K1's ap block only), so it is solved by one
+        LU of each diagonal block and a product with the constant ap block: less fill, and
+        faster, than one LU of the whole matrix. A foundation coupling the blocks falls back
+        to one LU. r may be one vector or a block of columns."""
+        c = self.c if c is None else c
+        s = omega**2 / c if complex(c).imag else omega**2 / complex(c).real
+        data = self.k0_data - s * self.m_data
+        if self.extra is None:
+            (iaa, Paa), (ipp, Ppp) = self.blocks
+            Zaa = sp.csc_matrix((data[iaa], Paa.indices, Paa.indptr), shape=Paa.shape)
+            Zpp = sp.csc_matrix((data[ipp], Ppp.indices, Ppp.indptr), shape=Ppp.shape)
+            return _block_solver(Zaa, Zpp, self.Z_ap, self.na)
+        P = self.pattern
+        Z = (sp.csc_matrix((data, P.indices, P.indptr), shape=P.shape)
+             + self.extra(omega) / (c if complex(c).imag else complex(c).real)).tocsc()
+        na = self.na
+        if Z[na:, :na].count_nonzero() == 0:
+            return _block_solver(Z[:na, :na].tocsc(), Z[na:, na:].tocsc(),
+                                 Z[:na, na:].tocsr(), na)
+        lu = spl.splu(Z, permc_spec="MMD_AT_PLUS_A")
+        return lu.solve
 
     @property
     def key(self) -> bytes:
@@ -128,20 +157,61 @@ class FamilyOperators:
 
     def dA(self, k: np.ndarray, phi: np.ndarray) -> np.ndarray:
         """psi_n^T A'(k_n) phi_n for every column, A' = c (2 k K2 + i K1)."""
-        K2phi, K1phi = self.K2 @ phi, self.K1 @ phi
+        K2phi, K1phi = real_times(self.K2, phi), real_times(self.K1, phi)
         Ap = self.c * (2 * k * K2phi + 1j * K1phi)
         return np.einsum("ij,ij->j", self.flip[:, None] * phi, Ap)
 
     def group_velocity(self, omega: float, k: np.ndarray, phi: np.ndarray) -> np.ndarray:
         """Undamped group velocity d omega / d k by Hellmann-Feynman (real k)."""
-        num = np.einsum("ij,ij->j", phi.conj(), (2 * k * (self.K2 @ phi) + 1j * (self.K1 @ phi)))
-        den = 2 * omega * np.einsum("ij,ij->j", phi.conj(), self.M @ phi)
+        num = np.einsum("ij,ij->j", phi.conj(),
+                        2 * k * real_times(self.K2, phi) + 1j * real_times(self.K1, phi))
+        den = 2 * omega * np.einsum("ij,ij->j", phi.conj(), real_times(self.M, phi))
         return (num / den).real
 
     def to_reduced(self, phi_ordered: np.ndarray) -> np.ndarray:
         out = np.empty_like(phi_ordered)
         out[self.order] = phi_ordered
         return out
+
+
+def real_times(A, X: np.ndarray) -> np.ndarray:
+    """A @ X for a real sparse A and a real or complex dense X (one vector or columns): a
+    complex X is multiplied as its real and imaginary parts side by side, so A is not
+    copied to complex."""
+    if not np.iscomplexobj(X) or np.iscomplexobj(A.data):
+        return A @ X
+    X = np.ascontiguousarray(X)
+    if X.ndim == 1:
+        return np.ascontiguousarray(A @ X.view(float).reshape(-1, 2)).view(complex).ravel()
+    return np.ascontiguousarray(A @ X.view(float)).view(complex)
+
+
+def _diagonal_blocks(P: sp.csc_matrix, na: int):
+    """((positions, pattern) of the aa block, same of the pp block) of a sorted CSC
+    pattern: the positions of each block's entries in P.data, in the block's CSC order."""
+    pos = sp.csc_matrix((np.arange(1, P.nnz + 1, dtype=float), P.indices, P.indptr),
+                        shape=P.shape)
+    out = []
+    for sl_ in (slice(None, na), slice(na, None)):
+        blk = pos[sl_][:, sl_].tocsc()
+        blk.sort_indices()
+        out.append((blk.data.astype(np.int64) - 1, blk))
+    return tuple(out)
+
+
+def _block_solver(Zaa, Zpp, Zap, na: int):
+    """r -> Z^-1 r for Z = [[Zaa, Zap], [0, Zpp]] from one LU of each diagonal block."""
+    la = spl.splu(Zaa, permc_spec="MMD_AT_PLUS_A")
+    lp = spl.splu(Zpp, permc_spec="MMD_AT_PLUS_A")
+    dtype = np.result_type(Zaa.dtype, Zpp.dtype)
+
+    def solve(r):
+        r = np.asarray(r, dtype=np.result_type(dtype, r.dtype))
+        xp = lp.solve(r[na:])
+        xa = la.solve(r[:na] - real_times(Zap, xp))
+        return np.concatenate([xa, xp])
+
+    return solve
 
 
 def _block_sum(na: int, *parts) -> sp.csc_matrix:
@@ -298,16 +368,23 @@ def _lambdas_dense(ops: FamilyOperators, omega: float, c: complex, inverted: boo
 
 
 def _lambdas_shift_invert(ops: FamilyOperators, omega: float, n: int, c: complex):
-    n = min(n, ops.B0.shape[0] - 2)
-    Z = ops.constant_matrix(omega, c)
-    lu = spl.splu(Z, permc_spec="MMD_AT_PLUS_A")  # fewer fill-ins than COLAMD here
-    B = ops.B0 if c.imag == 0 else c * ops.B0
-    dtype = np.result_type(Z.dtype, B.dtype)
-    op = spl.LinearOperator(B.shape, dtype=dtype, matvec=lambda x: lu.solve(-(B @ x)))
+    """The n pairs of smallest |lambda| by ARPACK on -Z^-1 B0, Z = K0' - (omega^2 / c) M
+    (the pencil divided by c: B0 stays real, and undamped operators stay real)."""
+    N = ops.B0.shape[0]
+    n = min(n, N - 2)
+    solve = ops.factorised(omega, c)
+    damped = complex(c).imag != 0 or np.iscomplexobj(omega)
+    dtype = complex if damped else float
+    B = ops.B0r
+    op = spl.LinearOperator(B.shape, dtype=dtype,
+                            matvec=lambda x: -solve(real_times(B, x)))
     # a fixed start vector: ARPACK's own is drawn from a generator that carries over between
     # calls, which would make a result depend (at round-off level) on what ran before
-    v0 = np.random.default_rng(0).standard_normal(B.shape[0]).astype(dtype)
-    nu, vec = spl.eigs(op, k=n, which="LM", tol=1e-10, v0=v0)
+    v0 = np.random.default_rng(0).standard_normal(N).astype(dtype)
+    # about 2n Krylov vectors are needed whatever ncv; beyond 60 waves a basis of 1.5 n
+    # restarts once at no more products and less orthogonalisation (benchmarks)
+    ncv = min(N - 1, 2 * n + 1 if n <= 60 else n + n // 2)
+    nu, vec = spl.eigs(op, k=n, which="LM", tol=1e-10, v0=v0, ncv=ncv)
     return 1.0 / nu, vec
 
 
