@@ -83,3 +83,33 @@ def test_eigen_engine_equals_the_direct_engine(directions, names):
     engine = auto.engine(space.base)
     with pytest.raises(ValueError, match="holds the other"):
         engine.receptance(space.base.replace(kp=space.base.support.kp * 2))
+
+
+def test_fit_cli_fits_a_lateral_row(tmp_path):
+    """``railfem fit TABLE --directions y`` fits the table's lateral row (not its vertical
+    one) for the lateral chain, on a track whose supports act laterally, and says so."""
+    import json
+    import subprocess
+    import sys
+
+    table = tmp_path / "tdr.csv"
+    table.write_text("loc,sec,messdatum,temp,rail,dir,250,315,400,500\n"
+                     "Ni,B1,2012-09-12,10.6,li,v,8.8,12.1,14.2,16.6\n"
+                     "Ni,B1,2012-09-12,10.6,re,h,5.8,3.5,1.8,1.3\n")
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "railfem.cli", "-q", "fit", str(table), "--directions", "y",
+           "--starts", "1", "--workers", "1", "--no-profiles", "--discrepancy", "none",
+           "--out", str(out)]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert "supports acting in zy" in r.stdout
+    doc = json.loads((out / "fit.json").read_text())
+    assert [p["name"] for p in doc["parameters"]] == list(LATERAL)
+    assert doc["spec"]["track"]["support_directions"] == "zy"
+    run = json.loads((out / "run.json").read_text())
+    assert run["directions"] == "y" and run["metadata"]["rail_side"] == "re"
+    assert set(doc["residual_rms_db"]) == {"tdr"}
+    bad = subprocess.run(cmd[:5] + [str(table), "--directions", "y", "--select", "dir=v",
+                                    "--out", str(tmp_path / "o2")],
+                         capture_output=True, text=True)
+    assert bad.returncode != 0 and "disagree" in bad.stderr

@@ -119,14 +119,20 @@ def fit_args(p: argparse.ArgumentParser) -> None:
     p.add_argument("--use", default=None, metavar="Q,Q",
                    help="quantities fitted: point,phase,transfer,tdr (default "
                    "point,transfer,tdr for hammer data, tdr for a table)")
-    p.add_argument("--parameters", default=",".join(DEFAULT_PARAMETERS), metavar="P,P",
-                   help="parameters fitted: kp,eta_p,kb,eta_b,eta_r,ms,pad_length "
-                   f"(default {','.join(DEFAULT_PARAMETERS)})")
+    p.add_argument("--parameters", default=None, metavar="P,P",
+                   help="parameters fitted: kp,eta_p,kb,eta_b,eta_r,ms,pad_length, laterally "
+                   "kp_lat,eta_p_lat,kb_lat,eta_b_lat,ms_lat (default "
+                   f"{','.join(DEFAULT_PARAMETERS)}; lateral rows: "
+                   "kp_lat,eta_p_lat,kb_lat,eta_b_lat)")
     base_args(p)
     p.add_argument("--row", type=index, metavar="N", default=None,
                    help="table: row N of the selection (0-based)")
     p.add_argument("--select", default=None, metavar="K=V,...",
                    help="table: rows matching e.g. dir=v,sec=B5 (keys dir, sec, date, rail)")
+    p.add_argument("--directions", choices=("z", "y"), default=None,
+                   help="table: the decay-rate rows fitted, z vertical or y lateral (a lateral "
+                        "row is fitted on a track whose supports act vertically and "
+                        "laterally, as diagnose models it); default: the rows --select gives")
     p.add_argument("--campaign", action="store_true",
                    help="table: fit every selected row (on a Dask cluster)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS",
@@ -195,15 +201,17 @@ def fit_run(args) -> int:
 
     base = base_from_args(args)
     use = parse_use(args.use) if args.use else None
-    params = tuple(x.strip() for x in args.parameters.split(",") if x.strip())
+    params = (None if args.parameters is None else
+              tuple(x.strip() for x in args.parameters.split(",") if x.strip()))
     s = run_fit(args.data, args.out, model=args.model, use=use, parameters=params,
-                select=args.select, row=args.row, campaign=args.campaign,
+                select=args.select, row=args.row, directions=args.directions,
+                campaign=args.campaign,
                 scheduler=args.scheduler, base=base, n_starts=args.starts,
                 workers=workers_from_args(args), seed=args.seed,
                 transfer_positions=args.transfer_positions, f_range=f_range_from_args(args),
                 profiles=() if args.no_profiles else ("kp", "kb"),
                 discrepancy=discrepancy_from_args(args), command=" ".join(sys.argv))
-    sys.stdout.write(f"base model: {describe_base(base, params)}\n")
+    sys.stdout.write(f"base model: {s.get('base') or describe_base(base, s['parameters'])}\n")
     from ..jobs.fit import parameter_line
 
     if "summary" in s:

@@ -15,6 +15,12 @@ atomically:
   what to do next, as ``railfem fit`` prints it;
 * ``run.json`` — the command record.
 
+A table's lateral rows (direction 'y', 'h' in the SBB table; ``directions='y'`` selects
+them) are fitted on the base with supports acting vertically and laterally (support
+directions 'zy', as ``railfem diagnose`` models a lateral row), by default for the lateral
+support chain (LATERAL_PARAMETERS); the fitted parameters then change the lateral springs
+only, so the fit evaluates the coupling in eigen form (railfem.identify.forward).
+
 A campaign (``campaign=True``: every selected row of a table) fits the rows on a Dask
 cluster (``scheduler`` address, or a LocalCluster) and writes one sub-folder per row plus
 ``campaign.csv`` / ``campaign.json``. What DATA is, is decided by railfem.io.data; the
@@ -32,33 +38,54 @@ import numpy as np
 
 from ..atomic import prepare_output_dir, write_text_atomic
 from ..identify.campaign import fit_campaign
+from ..identify.base import describe_base
 from ..identify.data import model_quantities
 from ..identify.fit import DEFAULT_PARAMETERS, DISCREPANCY, PROFILED, fit
 from ..identify.profiling import CHI2_95
-from ..io.data import read_data
+from ..io.data import parse_select, read_data
+from ..measurement import direction_name
 from .common import FIT_PROGRESS, watch_progress
 
 log = logging.getLogger(__name__)
 
+#: the parameters a lateral row is fitted for by default: the lateral support chain
+LATERAL_PARAMETERS = ("kp_lat", "eta_p_lat", "kb_lat", "eta_b_lat")
+DIRECTIONS = ("z", "y")  # decay-rate rows: vertical, lateral
+
 
 def run_fit(data, out_dir, *, model: str = "wfe-discrete", use=None,
-            parameters=DEFAULT_PARAMETERS, select=None, row=None,
+            parameters=None, select=None, row=None, directions: str | None = None,
             campaign: bool = False, scheduler: str | None = None, base=None,
             n_starts: int = 8, workers: int | None = None, seed: int = 0,
             transfer_positions=None, f_range=None, profiles=PROFILED,
             cache=None, slow_nodes=None, slow_refine=None, discrepancy=DISCREPANCY,
             command: str = "") -> dict:
     """Fit ``model`` to DATA and write the outputs to ``out_dir``; returns the run record.
-    discrepancy: the model-form discrepancy ('ensemble', the default, as ``railfem
-    diagnose``; None: noise only), railfem.identify.fit."""
+    directions: a table's rows fitted, 'z' (vertical) or 'y' (lateral), on top of
+    ``select``; a lateral row is fitted on ``lateral_base(base)`` (default parameters
+    LATERAL_PARAMETERS, else DEFAULT_PARAMETERS). discrepancy: the model-form discrepancy
+    ('ensemble', the default, as ``railfem diagnose``; None: noise only),
+    railfem.identify.fit."""
     t0 = time.perf_counter()
     out = prepare_output_dir(out_dir, "fit")
-    kind, items = read_data(data, select=select, row=row, campaign=campaign)
+    kind, items = read_data(data, select=with_direction(select, directions), row=row,
+                            campaign=campaign)
+    lateral = is_lateral(items, kind)
+    if lateral:
+        base = lateral_base(base, model)
+    if parameters is None:
+        parameters = LATERAL_PARAMETERS if lateral else DEFAULT_PARAMETERS
+    if lateral and tuple(profiles) == PROFILED:  # the lateral chain's stiffnesses
+        profiles = tuple(f"{n}_lat" for n in PROFILED)
     opts = dict(model=model, parameters=tuple(parameters), n_starts=n_starts, seed=seed,
                 cache=cache, profiles=profiles, slow_nodes=slow_nodes, slow_refine=slow_refine,
                 discrepancy=discrepancy)
     record = {"command": "fit", "argv": command, "data": str(data), "model": model,
-              "parameters": list(parameters), "kind": kind, "discrepancy": discrepancy}
+              "parameters": list(parameters), "kind": kind, "discrepancy": discrepancy,
+              "directions": "y" if lateral else "z"}
+    if base is not None:
+        record["base"] = describe_base(base, parameters) + (
+            f"; supports acting in {base.support_directions}" if lateral else "")
     if kind == "hammer":
         target_options = {"transfer_positions": transfer_positions, "f_range": f_range}
         with watch_progress(*FIT_PROGRESS):
@@ -91,6 +118,47 @@ def run_fit(data, out_dir, *, model: str = "wfe-discrete", use=None,
     record.setdefault("files", {})["run_json"] = str(out / "run.json")
     write_text_atomic(out / "run.json", json.dumps(record, indent=2, default=_json) + "\n")
     return record
+
+
+def with_direction(select, directions: str | None):
+    """``select`` (a dict or its text, railfem.io.data.parse_select) with the rows of
+    ``directions`` ('z' vertical, 'y' lateral; None: as selected)."""
+    if directions is None:
+        return select
+    if directions not in DIRECTIONS:
+        raise ValueError(f"directions = {directions!r}: give 'z' (vertical rows) or 'y' "
+                         "(lateral rows); a fit takes one direction at a time")
+    crit = parse_select(select) if isinstance(select, str) else dict(select or {})
+    given = crit.get("direction")
+    if given is not None and direction_name(given) != directions:
+        raise ValueError(f"--select dir={given} and --directions {directions} disagree: "
+                         "give one of them")
+    crit["direction"] = directions
+    return crit
+
+
+def is_lateral(items, kind: str) -> bool:
+    """Whether the selected rows are lateral (all of them: a fit takes one direction)."""
+    if kind == "hammer":
+        return False
+    dirs = {m.direction for _, m in items}
+    if len(dirs) > 1:
+        raise ValueError("the selection holds vertical and lateral rows: fit one direction at "
+                         "a time (--directions z or --directions y)")
+    return dirs == {"y"}
+
+
+def lateral_base(base, model: str):
+    """The base of a lateral row: ``base`` (default railfem.identify.base.default_base of
+    ``model``) with supports acting laterally as well (support directions with 'y'),
+    as the diagnosis models a lateral row."""
+    from ..identify.base import default_base
+
+    spec = default_base(model) if base is None else base
+    if "y" in spec.support_directions:
+        return spec
+    dirs = spec.support_directions + "y"
+    return spec.replace(support_directions="".join(d for d in "zyx" if d in dirs))
 
 
 # ------------------------------------------------------------------ the summary
