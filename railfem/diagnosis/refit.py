@@ -157,7 +157,8 @@ def _solve(problem: core.Problem, x0, max_nfev=200):
 
 def _starts(problem: core.Problem, x_base, n_keep: int):
     """Start vectors: the base estimate with every combination of 3 values per effect
-    parameter (20 %, its declared start, 80 % of its range in vector units), the best
+    parameter (20 %, its declared start, 80 % of its range in vector units; a parameter's
+    ``scan`` values instead where it has them), the best
     n_keep by cost; with more than MAX_GRID_START effect parameters the declared starts
     alone."""
     eff = problem.box.parameters[len(BASE):]
@@ -168,11 +169,11 @@ def _starts(problem: core.Problem, x_base, n_keep: int):
                     for p in e.continuous]
         return [np.concatenate([x_base, declared])]
     lo, hi = problem.box.lower[len(BASE):], problem.box.upper[len(BASE):]
-    declared = []
-    for e in problem.model.effects:
-        declared += [p.parameter().encode(p.start) for p in e.continuous]
-    choices = [(lo[i] + 0.2 * (hi[i] - lo[i]), declared[i], lo[i] + 0.8 * (hi[i] - lo[i]))
-               for i in range(len(eff))]
+    pars = [p for e in problem.model.effects for p in e.continuous]
+    declared = [p.parameter().encode(p.start) for p in pars]
+    choices = [tuple(map(p.parameter().encode, p.scan)) or  # a parameter's own scan
+               (lo[i] + 0.2 * (hi[i] - lo[i]), declared[i], lo[i] + 0.8 * (hi[i] - lo[i]))
+               for i, p in enumerate(pars)]
     cands = []
     for combo in itertools.product(*choices):
         x = np.concatenate([x_base, combo])

@@ -54,7 +54,9 @@ KINDS = ("spec", "geometry", "measurement", "campaign")
 @dataclass(frozen=True, kw_only=True)
 class EffectParameter:
     """One parameter of an effect: name, SI unit, bounds, log10 scale or not, a start value
-    and what it means physically."""
+    and what it means physically; ``scan``: SI start values the refit's multi-start tries
+    instead of three across the range (a parameter whose cost has narrow basins, e.g. the
+    frequency of a lightly damped mode)."""
 
     name: str
     unit: str
@@ -63,6 +65,7 @@ class EffectParameter:
     log: bool
     start: float
     meaning: str
+    scan: tuple = ()
 
     def __post_init__(self):
         if not self.lower < self.upper or (self.log and self.lower <= 0):
@@ -71,6 +74,9 @@ class EffectParameter:
         if not self.lower <= self.start <= self.upper:
             raise ValueError(f"EffectParameter {self.name}: start {self.start} is outside "
                              f"its bounds ({self.lower}, {self.upper})")
+        if not all(self.lower <= v <= self.upper for v in self.scan):
+            raise ValueError(f"EffectParameter {self.name}: a scan value is outside its "
+                             f"bounds ({self.lower}, {self.upper})")
 
     def parameter(self) -> Parameter:
         """As a railfem.params.Parameter (encode/decode between SI and vector units)."""
