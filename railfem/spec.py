@@ -450,7 +450,7 @@ SCHEMA = {
                 "kp_long": "stiffness", "eta_p_long": "number", "kb_lat": "stiffness",
                 "eta_b_lat": "number", "ms_lat": "mass", "mb": "mass", "kf": "stiffness",
                 "eta_f": "number", "k_roll": "number", "eta_roll": "number",
-                "k_clip": "stiffness", "eta_clip": "number"},
+                "k_clip": "stiffness", "eta_clip": "number", "seat": "str"},
     "track": {"spacing": "length", "pad_length": "length", "n_rows": "int",
               "n_supports": "int", "support_directions": "str", "rails": "int"},
     "sleeper": {"model": "str", "length": "length", "seat_distance": "length",

@@ -27,7 +27,7 @@ def case():
     vert, _, _ = models.discrete_kernel(spec, F, fx, rx, cache=False)
     lat, _, _ = models.discrete_kernel(spec, F, fx, rx, outputs=models.LATERAL,
                                        force="head_lateral", cache=False)
-    K = track.spring_stiffness(spec.layout(), 2 * np.pi * F, vert)
+    K = track.spring_stiffness(spec.layout(), 2 * np.pi * F, lat)  # every direction code
     return spec, vert, lat, K
 
 

@@ -112,15 +112,21 @@ def _row_scaling(K: np.ndarray, alpha0: np.ndarray):
 
 def _check_stiffness(K: np.ndarray, n_f: int, n: int, direction=None) -> np.ndarray:
     """(n_f, n) vertical set stiffness, or (n_f, n, 3) per direction x, y, z, (n_f, n, 4)
-    with the foot's roll (code 3, N m/rad); a kernel with horizontal springs (direction
-    codes 0, 1) needs one of the last forms."""
+    with the foot's roll (code 3, N m/rad), (n_f, n, 5) with the vertical springs' pair
+    differences (code 4, the pad against the foot's roll, railfem.track.directions.PAD_ROLL);
+    a kernel with springs other than vertical sums needs one of the last forms, as long
+    as its largest code."""
     K = np.asarray(K, dtype=complex)
-    if K.shape not in ((n_f, n), (n_f, n, 3), (n_f, n, 4)):
+    if K.shape not in ((n_f, n), (n_f, n, 3), (n_f, n, 4), (n_f, n, 5)):
         raise ValueError(f"spring stiffness has shape {K.shape}, expected (n_freq, n_springs) "
                          f"= ({n_f}, {n}) or (n_freq, n_springs, 3) per direction x, y, z")
     if K.ndim == 2 and direction is not None and np.any(np.asarray(direction) != 2):
         raise ValueError("the kernel has lateral or longitudinal springs: give the spring "
                          "stiffness per direction, shape (n_freq, n_springs, 3) for x, y, z")
+    if K.ndim == 3 and direction is not None and np.max(direction) >= K.shape[2]:
+        raise ValueError(f"the kernel has springs of direction code {np.max(direction)}: "
+                         f"give the spring stiffness with {np.max(direction) + 1} directions "
+                         "(railfem.track.wfe.spring_stiffness)")
     if np.any(np.isnan(K)):
         raise ValueError("spring stiffness contains NaN")
     return K

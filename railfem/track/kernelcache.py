@@ -33,7 +33,7 @@ from ..atomic import write_bytes_atomic
 log = logging.getLogger(__name__)
 
 #: Bumped whenever a kernel's content or layout changes: old cache files are then ignored.
-KERNEL_FORMAT = 3
+KERNEL_FORMAT = 4  # 4: the vertical pair differences carry their own code (PAD_ROLL)
 
 #: Environment variable bounding the on-disk cache, in MB.
 SIZE_VARIABLE = "RAILFEM_CACHE_MAX_MB"

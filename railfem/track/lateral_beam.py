@@ -150,18 +150,20 @@ def lateral_track_receptance(section: LateralSection, support_params: SupportPar
                              response_length: float = 0.0) -> np.ndarray:
     """The lateral beam on the continuous support of METHOD.md section 2 acting laterally
     and vertically: lateral stiffness K_y(omega)/spacing per metre at the foot underside
-    (height z_foot, m) and rotational stiffness K_z(omega)/spacing * bed_moment, where
+    (height z_foot, m) and rotational stiffness K_z-(omega)/spacing * bed_moment, where
     bed_moment (m^2) is the second moment of the vertical bed's distribution across the foot
-    about the web axis (W^2/12 for a uniform bed of width W), plus the fastening's roll
-    restraint k_roll / spacing (SupportParameters). Shapes as lateral_receptance."""
-    from .directions import directional_stiffness
-    from .supports import dynamic_stiffness
+    about the web axis (W^2/12 for a uniform bed of width W) and K_z- the vertical pad
+    springs' chain against the foot's roll (railfem.track.directions.PAD_ROLL: the pad
+    alone on the default rigid seat, the whole chain with seat 'per_spring'), plus the
+    fastening's roll restraint k_roll / spacing (SupportParameters). Shapes as
+    lateral_receptance."""
+    from .directions import PAD_ROLL, directional_stiffness
 
     w = np.atleast_1d(validators.finite_array("omega", omega, "rad/s"))
     if np.any(w < 0):
         raise ValueError("omega must be >= 0 rad/s (angular frequency, not Hz)")
     ky = directional_stiffness(support_params, w, "y") / spacing
-    kt = (dynamic_stiffness(support_params, w) / spacing * bed_moment
+    kt = (directional_stiffness(support_params, w, PAD_ROLL) / spacing * bed_moment
           + directional_stiffness(support_params, w, "r") / spacing)  # + the grip's roll
     return lateral_receptance(section, w, x, force, response, k_y=ky, k_theta=kt,
                               z_spring=z_foot, load_length=load_length,

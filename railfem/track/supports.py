@@ -28,6 +28,8 @@ log = logging.getLogger(__name__)
 
 DEFAULT_SPACING = 0.6  # m, sleeper spacing of METHOD.md Table 1
 DEFAULT_SLEEPER_MASS = 120.0  # kg per rail, METHOD.md section 2
+#: How the foot springs meet the sleeper (SupportParameters.seat; docs/supports.md).
+SEATS = ("rigid", "per_spring")
 
 
 def _check_stiffness(name: str, value: float) -> None:
@@ -177,6 +179,18 @@ class SupportParameters:
         length and rail seats), or None (default): the rigid mass ms, rails in phase.
     case: the load case of a two-rail track this support stands for, 'symmetric' (rails
         in phase, the single-rail model; default) or 'antisymmetric' (needs a sleeper).
+
+    seat: how the vertical pad springs across the foot meet the sleeper (docs/supports.md).
+        'rigid' (default): they act between the rail foot and one rail seat that moves as
+        the sleeper does; on the rigid sleeper of a symmetric track the seat translates but
+        does not turn about the rail axis, so against the foot's roll the pad acts alone
+        (its roll stiffness kp* sum w_j y_j^2, kp* W^2 / 12 for a uniform pad of width W),
+        while the vertical translation sees the whole pad - sleeper - ballast chain.
+        'per_spring': each spring is its own pad - sleeper - ballast chain carrying its
+        share of the sleeper mass (METHOD.md section 2 as published): the seat then rolls
+        with the foot against the shares' rotational inertia ms W^2 / 12 only, a mass-like
+        roll restraint above the sleeper-ballast resonance. Vertical loads on the rail's
+        mirror plane do not excite the roll: their results are the same for both.
     """
 
     kp: float
@@ -202,8 +216,12 @@ class SupportParameters:
     eta_roll: float = 0.0
     k_clip: float = 0.0
     eta_clip: float = 0.0
+    seat: str = "rigid"
 
     def __post_init__(self):
+        if self.seat not in SEATS:
+            raise ValueError(f"SupportParameters.seat = {self.seat!r}: use one of "
+                             f"{', '.join(repr(x) for x in SEATS)}")
         _check_stiffness("kf", self.kf)
         _check_loss_factor("eta_f", self.eta_f)
         if not np.isfinite(self.mb) or self.mb < 0:
@@ -557,5 +575,5 @@ __all__ = [
     "FractionalZener", "FootDashpot", "RailAbsorber", "SupportParameters", "dynamic_stiffness",
     "support_receptance", "continuous_stiffness", "TABLE1", "PRESETS", "RAIL_LOSS_FACTORS",
     "preset_key", "SpringSet", "SupportLayout", "uniform_layout", "with_support",
-    "foot_spring_weights", "DEFAULT_SPACING", "DEFAULT_SLEEPER_MASS",
+    "foot_spring_weights", "DEFAULT_SPACING", "DEFAULT_SLEEPER_MASS", "SEATS",
 ]

@@ -44,7 +44,7 @@ from .coupling import (
 )
 from ..rail.greens import combine, residue_sum, wave_kernels
 from ..rail.mobility import FamilyResponse, Location, boundary_edges, check_frequency, wave_sum
-from .directions import directional_stiffness
+from .directions import PAD_ROLL, directional_stiffness, family_direction
 from .supports import SupportLayout, dynamic_stiffness
 from ..rail.waveguide import Waveguide
 from ..rail.waves import FamilyOperators, frozen_tail, join, waves_at
@@ -64,6 +64,10 @@ FAMILY_TOL = 1e-9
 COMPONENT = {"x": 0, "y": 1, "z": 2}
 #: direction code of the foot's roll column (the fastening's roll restraint, foot_springs)
 ROLL_CODE = 3
+#: direction code of the vertical springs' mirror-pair differences: the pad against the
+#: foot's roll (railfem.track.directions.PAD_ROLL)
+PAD_ROLL_CODE = 4
+CODES = {**COMPONENT, "r": ROLL_CODE, PAD_ROLL: PAD_ROLL_CODE}
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -130,7 +134,7 @@ def foot_springs(guide: Waveguide, n_f: int = DEFAULT_N_FOOT_SPRINGS, *,
             for sign, w in parts:
                 others.append(Location(label=f"foot_spring_{i}_{d}{sign}", weights=w))
                 weight.append(pair_share)
-                direction.append(d)
+                direction.append(PAD_ROLL if d + sign == PAD_ROLL else d)
     if "r" in directions:  # the roll: a moment on the foot, the whole support's restraint
         others.append(roll_reads(guide, n_f, rule))
         weight.append(1.0)
@@ -159,7 +163,7 @@ def spring_columns(guide: Waveguide, springs: FootSprings, families) -> tuple:
     share = np.concatenate([np.asarray(springs.weight, dtype=float),
                             np.asarray(springs.other_weight, dtype=float)])
     code = np.array([2] * len(springs.pairs)
-                    + [COMPONENT.get(d, ROLL_CODE) for d in springs.other_direction],
+                    + [CODES[d] for d in springs.other_direction],
                     dtype=np.int64)
     keep = []
     for j, loc in enumerate(locs):
@@ -264,11 +268,13 @@ def _columns(guide: Waveguide, springs: FootSprings, load: Location,
 def spring_stiffness(layout: SupportLayout, omega, kernel) -> np.ndarray:
     """The coupling's spring-set stiffness for ``kernel``'s springs: (nf, n_sets) vertical
     when all its springs are vertical, else (nf, n_sets, 3) in the directions x, y, z, or
-    (nf, n_sets, 4) with the roll restraint (N m/rad) as the fourth (railfem.track.coupling)."""
+    (nf, n_sets, 4) with the roll restraint (N m/rad) as the fourth, (nf, n_sets, 5) with
+    the pad against the foot's roll (directions.PAD_ROLL) as the fifth
+    (railfem.track.coupling)."""
     codes = np.asarray(kernel.spring_direction)
     if np.all(codes == 2):
         return layout.spring_stiffness(omega)
-    dirs = "xyzr" if np.any(codes == ROLL_CODE) else "xyz"
+    dirs = ["x", "y", "z", "r", PAD_ROLL][:max(3, int(codes.max()) + 1)]
     return np.stack([layout.spring_stiffness(omega, d) for d in dirs], axis=-1)
 
 
@@ -495,13 +501,16 @@ def supported_operators(guide: Waveguide, params, spacing: float, family: str = 
                         directions: str = "z") -> FamilyOperators:
     """Operators of one family of the rail on the continuous foundation (in the
     ``directions`` z, y, x, each direction's chain K_d(omega)/spacing per metre spread over
-    the foot underside): its waves are the free waves of the continuously supported track."""
+    the foot underside; the vertical bed on the antisymmetric family, the foot's roll, with
+    the pad against the rail seat, directions.family_direction): its waves are the free
+    waves of the continuously supported track."""
     ops = FamilyOperators(guide, family)
     T = guide.families[family].T
-    beds = [(d, (T.T @ (roll_bed(guide) if d == "r" else foot_bed(guide, COMPONENT[d]))
-                 @ T).tocsr()[ops.order][:, ops.order])
+    beds = [(family_direction(d, family),
+             (T.T @ (roll_bed(guide) if d == "r" else foot_bed(guide, COMPONENT[d]))
+              @ T).tocsr()[ops.order][:, ops.order])
             for d in "zyxr" if d in directions]
-    if len(beds) == 1:
+    if len(beds) == 1 and beds[0][0] == "z":
         bed = beds[0][1]
         ops.extra = lambda omega: (dynamic_stiffness(params, omega).item() / spacing) * bed
     else:
