@@ -243,6 +243,7 @@ def fit(data, model: str = "wfe-discrete", *, parameters=DEFAULT_PARAMETERS, bas
     slow_profile = None
     t = time.perf_counter()
     if not slow:
+        forward.engine(forward.spec(x_base))  # built here once, not in every worker process
         runs = run_tasks(problem, start_task, [(s, free) for s in starts], workers, "start")
         x_hat = np.array(min(runs, key=lambda r: r["cost"])["x"])
     else:

@@ -20,7 +20,7 @@ all its parameters are cheap, so it has no SLOW parameters.
 from __future__ import annotations
 
 import logging
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -162,7 +162,7 @@ class DirectionalEngine:
     in that direction's stiffness (railfem.track.directional), so receptance(spec) costs a
     short sum per frequency. ``names``: the fitted parameters (their values are not part
     of the engine; every other support value is, and receptance refuses a spec that
-    changes one)."""
+    changes one: the springs of the other directions are held at the values built with)."""
 
     def __init__(self, spec: TrackSpec, geometry: Geometry, direction: str, names,
                  cache=False, progress=None):
@@ -170,7 +170,8 @@ class DirectionalEngine:
         self.kernel_values = kernel_values(spec)
         self.direction = direction
         self.omega = 2 * np.pi * g.frequency
-        self.held = held_chains(spec, direction)
+        self.held_fields = tuple(f.name for f in fields(spec.support) if f.name not in names)
+        self.held = held_values(spec.support, self.held_fields)
         store = kernelcache.resolve(cache)
         canon = spec.replace(**{n: 1.0 for n in names if n in FAST}, name="fit")
         key = kernelcache.content_key("directional-fit", __version__, direction,
@@ -191,19 +192,17 @@ class DirectionalEngine:
                                         direction="xyzr".index(direction))
 
     def receptance(self, spec: TrackSpec) -> np.ndarray:
-        if held_chains(spec, self.direction) != self.held:
-            raise ValueError(f"the {self.direction!r} eigen form holds the other "
-                             "directions' supports at the base's values; this spec changes "
-                             "them (fit those parameters with engine='direct')")
+        if held_values(spec.support, self.held_fields) != self.held:
+            raise ValueError(f"the {self.direction!r} eigen form holds the support values "
+                             "it was built with but the fitted ones; this spec changes "
+                             "another (fit it as well, or use engine='direct')")
         k = directional_stiffness(spec.support, self.omega, self.direction)
         return self.form.receptance(k)
 
 
-def held_chains(spec: TrackSpec, direction: str) -> tuple:
-    """The support stiffness (probe) of spec's spring directions but ``direction``: what a
-    DirectionalEngine holds."""
-    return tuple(probe(spec.support, d) for d in models.spring_directions(spec)
-                 if d != direction)
+def held_values(support, names) -> tuple:
+    """The values of ``support``'s fields ``names``: what a DirectionalEngine holds."""
+    return tuple(getattr(support, n) for n in names)
 
 
 def checked_directional(kernel, spec: TrackSpec, jr, jf, direction: str) -> DirectionalSpectral:

@@ -194,7 +194,7 @@ def interval_from_slow_profile(analysis: dict, summary: dict, space=None, x=None
 def prebuild_nodes(problem, nodes, i, x_base, workers):
     """Build the engines of the kernel-parameter nodes (in parallel processes)."""
     fwd = problem.forward
-    if fwd.kind != "spectral":
+    if fwd.kind not in ("spectral", "eigen"):
         return
     xs = []
     for s in nodes:
