@@ -23,6 +23,15 @@ from railfem.track.supports import RailAbsorber
 
 SPREADS = (1.0, 1.5, 2.25)  # ratio between neighbouring tunings (1: one tuned absorber)
 COUNT = 3
+#: the lowest loss factor of a rail damper's elastic layer: dampers are built with a
+#: high-loss elastomer so that each mass damps a broad band (Thompson, Jones, Waters and
+#: Farrington, Applied Acoustics 68, 2007: "multiple tuning frequencies are used along with
+#: a material with a high damping loss factor"). An absorber of loss factor eta acts over
+#: about eta fa around its tuning; below 0.1 that is a lightly damped resonance of the
+#: track itself (a flexible sleeper's bending mode seen through the pad is such a tuned
+#: mass: on data from another model with a 160 Hz sleeper the effect fitted one absorber at
+#: 914 Hz with eta_a 0.05-0.07), not a rail damper
+ETA_A_MIN = 0.1
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -90,7 +99,8 @@ EFFECT = Effect(
         EffectParameter(name="fa", unit="Hz", lower=100.0, upper=4000.0, log=True,
                         start=800.0, meaning="centre tuning frequency (geometric mean of "
                                              "the tunings)"),
-        EffectParameter(name="eta_a", unit="-", lower=0.03, upper=2.0, log=True, start=0.3,
-                        meaning="loss factor of the absorbers' elastic layer"),
+        EffectParameter(name="eta_a", unit="-", lower=ETA_A_MIN, upper=2.0, log=True,
+                        start=0.3, meaning="loss factor of the absorbers' elastic layer "
+                                           f"(a damper's elastomer: >= {ETA_A_MIN:g})"),
     ),
     grid={"spread": SPREADS})
