@@ -84,6 +84,7 @@ class SupportUpdate:
                 self.VB[i, k0:k1] = Vw @ ((B[R] + p["sg"][:, None] * B[JR]) / 2)
                 k0 = k1
         self._rows_key, self._rows = None, None  # the last _rows_cols
+        self._products_key, self._products = None, {}  # the last _products_for
         self._maps = []  # per part: position of each spring in R and in JR (-1: absent)
         for p in plan:
             pr, pj = np.full(n, -1), np.full(n, -1)
@@ -96,7 +97,9 @@ class SupportUpdate:
         """Memory held (bytes)."""
         return int(sum(v.nbytes + w.nbytes for v, w in zip(self.V, self.Vw))
                    + self.GV.nbytes + self.VB.nbytes
-                   + (0 if self._rows is None else sum(x.nbytes for x in self._rows)))
+                   + (0 if self._rows is None else sum(x.nbytes for x in self._rows))
+                   + sum(a.nbytes for block in self._products.values()
+                         for a in block.values()))
 
     @property
     def springs_per_support(self) -> int:
@@ -124,6 +127,16 @@ class SupportUpdate:
         self._rows = (np.concatenate(rows, axis=2), np.concatenate(cols, axis=1))
         self._rows_key = key
         return self._rows
+
+    def _products_for(self, K, U, pairs) -> dict:
+        """The products of the uniform track that depend on K, the springs U and the pairs
+        alone, per block of frequencies ({(first, stop): {name: array}}), kept from the
+        last call: a least-squares step asks for the residual and then the tangents at the
+        same K, and a refit with the base held asks for the same K call after call."""
+        key = (K.tobytes(), U.tobytes(), np.asarray(pairs).tobytes())
+        if self._products_key != key:
+            self._products_key, self._products = key, {}
+        return self._products
 
     def _gather(self, indices, pairs):
         """The kernel springs the supports ``indices`` take over the pairs ``pairs`` (their
@@ -172,10 +185,12 @@ class SupportUpdate:
         duK = np.empty((nf, n_out, n_pair), dtype=complex) if gradient and uniform else None
         # D_j = (1 / k_j - 1 / K) / w_j: d D_j / d K on every spring of the supports
         dKD = ok[None] / (K[:, None, None] ** 2 * np.tile(wsp, m_sup)[None, None, :])
+        products = self._products_for(K, U, pairs)
         for i0 in range(0, nf, step):
             f = slice(i0, min(nf, i0 + step))
+            pre = products.setdefault((f.start, f.stop), {})
             out = self._block(f, K[f], D[f], Vu[f], Vc[f], pairs, sel, pos, ia, ip,
-                              gradient, uniform)
+                              gradient, uniform, pre)
             u[f] = out[0]
             if gradient:
                 nb = out[0].shape[0]
@@ -186,22 +201,51 @@ class SupportUpdate:
             return u, du, duK
         return (u, du) if gradient else u
 
-    def _block(self, f, K, D, Vu, Vc, pairs, sel, pos, ia, ip, gradient, uniform=False):
+    def _uniform(self, f, K, Vu, Vc, sel, pre: dict) -> dict:
+        """The uniform track's part of a block (``pre``, filled once per K): u0, C on the
+        springs U (MU), a = alpha_rs M0^-1 E (R), b = E^T M0^-1 alpha_sP (Q)."""
+        if "MU" not in pre:
+            nb, n_out = len(K), self.direct.shape[1]
+            Kh = K[:, None] / (1.0 + K[:, None] * self.lam[f])  # (nb, n)
+            GV = self.GV[f][:, :, sel]  # (nb, o, pair, n)
+            VB = self.VB[f][:, :, sel]  # (nb, n, pair)
+            n_pair = VB.shape[2]
+            KVc, KVB = Kh[:, :, None] * Vc, Kh[:, :, None] * VB
+            pre["u0"] = self.direct[f][:, :, sel] - np.einsum("fopn,fnp->fop", GV, KVB)
+            GV = GV.reshape(nb, n_out * n_pair, -1)
+            pre["MU"] = Vu @ KVc  # (nb, u, u)
+            pre["R"] = (GV @ KVc).reshape(nb, n_out, n_pair, -1)
+            pre["Q"] = np.swapaxes(Vu @ KVB, 1, 2)  # (nb, pair, u)
+        return pre
+
+    def _uniform_dK(self, f, K, Vu, Vc, sel, pre: dict) -> dict:
+        """d/dK of the uniform part (D held): Kh -> h^2 = 1 / (1 + K lam)^2 in u0, C, a and
+        b (``pre``, filled once per K)."""
+        if "dMU" not in pre:
+            nb, n_out = len(K), self.direct.shape[1]
+            h2 = 1.0 / (1.0 + K[:, None] * self.lam[f]) ** 2
+            GV = self.GV[f][:, :, sel]  # (nb, o, pair, n)
+            VB = self.VB[f][:, :, sel]  # (nb, n, pair)
+            n_pair = VB.shape[2]
+            HVc, HVB = h2[:, :, None] * Vc, h2[:, :, None] * VB
+            pre["dR"] = (GV.reshape(nb, n_out * n_pair, -1) @ HVc).reshape(nb, n_out,
+                                                                            n_pair, -1)
+            pre["dQ"] = np.swapaxes(Vu @ HVB, 1, 2)
+            pre["dMU"] = Vu @ HVc
+            pre["du0"] = np.einsum("fopn,fnp->fop", GV, HVB)
+        return pre
+
+    def _block(self, f, K, D, Vu, Vc, pairs, sel, pos, ia, ip, gradient, uniform=False,
+               pre=None):
         """receptance at the frequencies ``f`` (a slice): (u, d u / d D or None, d u / d K
         through the uniform coupling, D held, or None). Pairs
         on the same re-centred supports (equal shift) share their update matrix
         A = I + D C: one factorisation serves them all, and the tangents' transposed solve
-        comes from it as well (A^-T a = a - C A^-1 D a, C = C^T to round-off)."""
+        comes from it as well (A^-T a = a - C A^-1 D a, C = C^T to round-off). ``pre``:
+        the uniform part at this K (_uniform), kept between calls."""
         nb, n_out, n_pair = len(K), self.direct.shape[1], len(pairs)
-        Kh = K[:, None] / (1.0 + K[:, None] * self.lam[f])  # (nb, n)
-        GV = self.GV[f][:, :, sel]  # (nb, o, pair, n)
-        VB = self.VB[f][:, :, sel]  # (nb, n, pair)
-        KVc, KVB = Kh[:, :, None] * Vc, Kh[:, :, None] * VB
-        u0 = self.direct[f][:, :, sel] - np.einsum("fopn,fnp->fop", GV, KVB)
-        GV = GV.reshape(nb, n_out * n_pair, -1)
-        MU = Vu @ KVc  # (nb, u, u)
-        R = (GV @ KVc).reshape(nb, n_out, n_pair, -1)
-        Q = np.swapaxes(Vu @ KVB, 1, 2)  # (nb, pair, u)
+        pre = self._uniform(f, K, Vu, Vc, sel, {} if pre is None else pre)
+        u0, MU, R, Q = pre["u0"], pre["MU"], pre["R"], pre["Q"]
         p = np.arange(n_pair)[:, None]
         pa = pos[:, ia]
         Da = D[:, :, ia]
@@ -253,15 +297,10 @@ class SupportUpdate:
             dD[..., ip] = w_p * (Q[:, p, pp_] - Cpy)[:, None]
         if not uniform:
             return u, dD, None
-        # d/dK with D held: Kh -> h^2 = 1 / (1 + K lam)^2 in u0, C, a and b;
-        # du = du0 + da y + (w D) (db - dC y)
-        h2 = 1.0 / (1.0 + K[:, None] * self.lam[f]) ** 2
-        HVc, HVB = h2[:, :, None] * Vc, h2[:, :, None] * VB
-        dR = (GV @ HVc).reshape(nb, n_out, n_pair, -1)
-        dQ = np.swapaxes(Vu @ HVB, 1, 2)
-        dMU = Vu @ HVc
+        # d/dK with D held: du = du0 + da y + (w D) (db - dC y)
+        pre = self._uniform_dK(f, K, Vu, Vc, sel, pre)
+        dR, dQ, dMU, du0 = pre["dR"], pre["dQ"], pre["dMU"], pre["du0"]
         dCy = per_pair(zy @ np.swapaxes(dMU[:, pg[:, :, None], pg[:, None, :]], -1, -2))
-        du0 = np.einsum("fopn,fnp->fop", GV.reshape(nb, n_out, n_pair, -1), HVB)
         duK = (np.einsum("fopm,fpm->fop", dR[:, :, p, pa], y) - du0
                + np.einsum("fopm,fpm->fop", w * Da[:, None], dQ[:, p, pa] - dCy))
         return u, dD, duK
