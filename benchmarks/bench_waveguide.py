@@ -501,6 +501,9 @@ def against_old_table(args, emit):
     h, rep = args.done_size, max(args.repeat, 3)
     emit(f"Table 4: against {args.old} (old) in the same run; CPU s per frequency, best of "
          f"{rep}, mean over {', '.join(f'{x:g}' for x in freqs)} Hz; 60E1 h = {h:g} mm")
+    emit("  reproduce: git worktree add /tmp/wg_old <old commit>; nice -n 5 python "
+         "benchmarks/bench_waveguide.py --speed-sizes --tail-sizes --sizes --full "
+         "--old /tmp/wg_old --out benchmarks/results/results_kofw_speed.txt")
     head = (f"{'case':<44} {'size':<24} {'old CPU':>8} {'new CPU':>8} {'old/new':>7} "
             f"{'max rel diff':>12}")
     emit(head)

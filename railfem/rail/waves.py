@@ -14,7 +14,8 @@ psi_n = T_a phi_n (T_a flips the sign of the axial DOFs), see METHOD.md section 
 
 Two strategies: ``"dense"`` returns all N waves (LAPACK eig of A^-1 B); ``"shift-invert"``
 returns the ``n_waves`` waves of smallest |k| by ARPACK on the sparse factorisation of the
-left-hand matrix - near-field waves with large |Im k| decay within millimetres and are
+left-hand matrix divided by c (block upper triangular: one LU of each diagonal block; the
+right-hand matrix B0 stays real for any loss factor) - near-field waves with large |Im k| decay within millimetres and are
 filtered out by any load spread over a patch. An undamped rail (eta = 0) is solved in real
 arithmetic. ``frozen_tail`` supplies the dropped near-field waves once per sweep.
 
