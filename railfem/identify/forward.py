@@ -7,7 +7,11 @@ kinds (METHOD.md section 7, "Separate what depends on parameters from what does 
   models only through the support dynamic stiffness K_s(omega): the parameter-free kernel
   is computed once (railfem.models.discrete_kernel, cached by railfem.track.kernelcache) and a new
   parameter set costs the coupling alone; on uniform discrete tracks the coupling itself is
-  a short sum (railfem.identify.spectral);
+  a short sum (railfem.identify.spectral); with springs in several directions (lateral
+  data) it is one as well when the fitted parameters change the springs of one direction
+  only (the lateral chain): the others are held and eliminated once, the coupling is put
+  in eigen form in that direction's stiffness (DirectionalEngine,
+  railfem.track.directional);
 * **kernel parameters** (SLOW: eta_r, pad_length) change the free rail or the support
   footprints, hence the kernel: every distinct value costs a kernel (seconds for the
   Timoshenko beam, tens of seconds for the WFE rail). ``ForwardModel.engine`` keeps one
