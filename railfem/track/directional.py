@@ -18,7 +18,9 @@ applies as it is, diag(w) alpha~_YY = V diag(lambda) V^-1 and
     R_m = (alpha~_rY V)[:, m] (V^-1 diag(w) alpha~_YP)[m, :],
 
 summed over the families (u = alpha_rP - sum_fam (alpha_rP - u_fam)). A new k_d then
-costs a short sum per frequency instead of a coupling solve per family.
+costs a short sum per frequency instead of a coupling solve per family. On a layout
+symmetric under x -> -x (is_mirrored) the even and odd parts are reduced apart
+(mirror_parts), as railfem.track.coupling solves them: eigenproblems of half the size.
 """
 from __future__ import annotations
 
