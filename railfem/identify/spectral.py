@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from railfem.track import kernelcache
 from railfem.track.coupling import DiscreteKernel, couple_discrete
 
 
@@ -124,6 +125,11 @@ def spectral_coupling(kernel: DiscreteKernel, pattern, jr: np.ndarray,
     direct = np.empty((nf, n_out, len(jr)), dtype=complex)
     oo = np.arange(n_out)
     rP_i = kernel.rP_index[None, :, :] * n_out + oo[:, None, None]  # (n_out, n_rx, n_fx)
+    # the eigen-decompositions: shared with kernels of the same springs (kernelcache)
+    key = kernelcache.eigen_key(kernel, w, [(rows, mirror, None if mirror is None else
+                                             sign * once) for rows, mirror, sign, once in parts])
+    known = kernelcache.eigen_get(key)
+    pairs = [] if known is None else known
     for i in range(nf):
         ssr = kernel.ss[i].ravel()
         alpha = ssr[ss_i]
@@ -131,20 +137,27 @@ def spectral_coupling(kernel: DiscreteKernel, pattern, jr: np.ndarray,
         G = kernel.rs[i].ravel()[rs_i].reshape(n_out, n_rx, -1)[:, jr, :]  # (o, pair, n)
         direct[i] = kernel.rP[i].ravel()[rP_i][:, jr, jf]
         k0 = 0
-        for rows, mirror, sign, once in parts:
+        if known is None:
+            pairs.append([])
+        for j, (rows, mirror, sign, once) in enumerate(parts):
             if mirror is None:
                 a, b, g = alpha, B, G
             else:
-                a = alpha[np.ix_(rows, rows)] + sign * once[None, :] * alpha[np.ix_(rows, mirror)]
+                a = None if known is not None else \
+                    alpha[np.ix_(rows, rows)] + sign * once[None, :] * alpha[np.ix_(rows, mirror)]
                 b = (B[rows] + sign * B[mirror]) / 2
                 g = G[:, :, rows] + sign * once[None, None, :] * G[:, :, mirror]
-            lam_p, V = np.linalg.eig(w[rows, None] * a)
+            if known is None:
+                pairs[i].append(np.linalg.eig(w[rows, None] * a))
+            lam_p, V = pairs[i][j]
             d = np.linalg.solve(V, w[rows, None] * b)  # (mm, pair)
             c = np.einsum("opn,nm->mop", g, V)
             k1 = k0 + len(rows)
             lam[i, k0:k1] = lam_p
             residue[i, k0:k1] = c * d[:, None, :]
             k0 = k1
+    if known is None:
+        kernelcache.eigen_put(key, pairs)
     return SpectralCoupling(frequency=np.asarray(kernel.frequency), lam=lam,
                             residue=residue, direct=direct)
 

@@ -240,3 +240,50 @@ def resolve(cache) -> KernelStore:
 
 _STORES: dict[Path, KernelStore] = {}  # one shared store (and memory) per folder
 _MEMORY_ONLY = KernelStore(directory=False)
+
+
+# ------------------------------------------------------------------ eigen-decompositions
+
+#: Eigen-decompositions of a kernel's coupling kept in memory (bytes): the eigen form of
+#: the coupling (railfem.identify.spectral) and the Woodbury form (railfem.track.woodbury)
+#: of kernels with the same springs (a record's own kernel, the kernels of its shifted
+#: geometries, the Woodbury form) decompose the same matrices.
+EIGEN_BYTES = 320e6
+_EIGEN: OrderedDict[str, list] = OrderedDict()  # key -> [hits, value, bytes]
+
+
+def eigen_key(kernel, weight, parts) -> str:
+    """Key of the matrices diag(w_R) (alpha_RR + c alpha_RJ) of ``kernel`` (its spring-spring
+    receptances at every frequency) per part (R rows, J the mirror rows or None, c the
+    mirror's coefficients or None), w = ``weight``: equal keys, equal matrices."""
+    h = hashlib.sha256()
+    _feed(h, ("eigen", KERNEL_FORMAT, np.asarray(kernel.frequency), kernel.ss,
+              np.asarray(kernel.ss_index), np.asarray(weight, dtype=float),
+              [(np.asarray(r), None if j is None else np.asarray(j),
+                None if c is None else np.asarray(c, dtype=float)) for r, j, c in parts]))
+    return h.hexdigest()[:40]
+
+
+def eigen_get(key: str):
+    """The value stored under ``key`` (marked used), or None."""
+    hit = _EIGEN.get(key)
+    if hit is None:
+        return None
+    hit[0] += 1
+    _EIGEN.move_to_end(key)
+    return hit[1]
+
+
+def eigen_put(key: str, value: list) -> None:
+    """Keep ``value`` ([per frequency [per part (eigenvalues, eigenvectors)]]) under
+    ``key`` within EIGEN_BYTES: those never asked for again go first, then the least
+    recently used."""
+    size = sum(a.nbytes for per_f in value for pair in per_f for a in pair)
+    if size > EIGEN_BYTES:
+        return
+    _EIGEN[key] = [0, value, size]
+    total = sum(e[2] for e in _EIGEN.values())
+    while total > EIGEN_BYTES:
+        unused = [k for k, e in _EIGEN.items() if e[0] == 0 and k != key]
+        drop = unused[0] if unused else next(iter(_EIGEN))
+        total -= _EIGEN.pop(drop)[2]

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import kernelcache
 from .coupling import DiscreteKernel, mirror_plan
 
 
@@ -65,6 +66,11 @@ class SupportUpdate:
         self.GV = np.empty((nf, n_out, len(jr), n), dtype=complex)
         self.VB = np.empty((nf, n, len(jr)), dtype=complex)
         self.direct = np.empty((nf, n_out, len(jr)), dtype=complex)
+        # the eigen-decompositions: those of the eigen form of the same kernel if at hand
+        key = kernelcache.eigen_key(kernel, self.w, [(p["R"], p["JR"], p["m"] * p["sg"])
+                                                     for p in plan])
+        known = kernelcache.eigen_get(key)
+        pairs = [] if known is None else known
         for i in range(nf):
             ssr = kernel.ss[i].ravel()
             alpha = ssr[ss_flat]
@@ -72,17 +78,23 @@ class SupportUpdate:
             G = kernel.rs[i].ravel()[rs_flat][:, jr, :]
             self.direct[i] = kernel.rP[i].ravel()[rP_flat][:, jr, jf]
             k0 = 0
+            if known is None:
+                pairs.append([])
             for j, p in enumerate(plan):
                 R, JR, ms = p["R"], p["JR"], p["m"] * p["sg"]
                 wR = self.w[R]
-                lam, V = np.linalg.eig(wR[:, None] * (alpha[np.ix_(R, R)]
-                                                       + ms[None, :] * alpha[np.ix_(R, JR)]))
+                if known is None:
+                    pairs[i].append(np.linalg.eig(wR[:, None] * (
+                        alpha[np.ix_(R, R)] + ms[None, :] * alpha[np.ix_(R, JR)])))
+                lam, V = pairs[i][j]
                 Vw = np.linalg.inv(V) * wR[None, :]
                 k1 = k0 + len(R)
                 self.lam[i, k0:k1], self.V[j][i], self.Vw[j][i] = lam, V, Vw
                 self.GV[i, :, :, k0:k1] = (G[:, :, R] + ms * G[:, :, JR]) @ V
                 self.VB[i, k0:k1] = Vw @ ((B[R] + p["sg"][:, None] * B[JR]) / 2)
                 k0 = k1
+        if known is None:
+            kernelcache.eigen_put(key, pairs)
         self._rows_key, self._rows = None, None  # the last _rows_cols
         self._products_key, self._products = None, {}  # the last _products_for
         self._maps = []  # per part: position of each spring in R and in JR (-1: absent)
