@@ -42,7 +42,7 @@ from railfem import models  # noqa: E402
 from railfem.io.tdr_table import SBB_NIEDERWANGEN_COLUMNS, read_decay_rate_table  # noqa: E402
 from railfem.standards import en15461, iec61260  # noqa: E402
 from railfem.track import lateral_beam  # noqa: E402
-from railfem.track.directions import directional_stiffness, roll_inertia  # noqa: E402
+from railfem.track.directions import PAD_ROLL, directional_stiffness, roll_inertia  # noqa: E402
 from railfem.track.sleeper import TWO_LAYER_ASSUMED  # noqa: E402
 from railfem.track.wavecontent import (  # noqa: E402
     continuous_wave_sets, section_content, wave_contributions)
@@ -52,12 +52,19 @@ BANDS = (100.0, 125.0, 160.0, 200.0)
 CONTEXT = (250.0, 315.0, 400.0, 500.0, 630.0, 800.0, 1000.0)
 SHOW_X = (0.3, 1.2, 3.0, 6.0, 12.0, 19.8)  # m: distances of the contribution table
 ETA_R = 0.01
+#: the rail seat (SupportParameters.seat): 'rigid' is the library's default; the tables of
+#: results_lateral_waves.md are of 'per_spring' (the seat rolling with the foot), --seat
+SEAT = {"seat": "rigid"}
 log = logging.getLogger("lateral_waves")
 
 
+def with_seat(spec):
+    return spec.replace(support=dataclasses.replace(spec.support, seat=SEAT["seat"]))
+
+
 def base_spec():
-    return rf.preset("site", model="wfe-continuous", support_directions="zyx").replace(
-        eta_r=ETA_R)
+    return with_seat(rf.preset("site", model="wfe-continuous", support_directions="zyx")
+                     .replace(eta_r=ETA_R))
 
 
 def rail_of(spec):
@@ -230,8 +237,8 @@ def closed_form(spec, measured):
     ls = section()
     B, GJ, Jf = rocking_constants(ls)
     W = 0.146  # m: 60E1 foot width (the mesh's underside)
-    kz = {b: complex(directional_stiffness(spec.support, 2 * np.pi * b, "z")) for b in
-          BANDS + CONTEXT[:2]}
+    kz = {b: complex(directional_stiffness(spec.support, 2 * np.pi * b, PAD_ROLL)) for b in
+          BANDS + CONTEXT[:2]}  # the vertical springs against the roll (the seat's)
     pad_roll = spec.support.kp * W ** 2 / 12
     rows = []
     for b in BANDS + CONTEXT[:2]:
@@ -338,7 +345,10 @@ def main(argv=None):
     p.add_argument("--periodic", action="store_true", help="also the EN 15461 lateral decay "
                    "rate of the discrete-support track (wfe-periodic), base and with the "
                    "pad's roll stiffness")
+    p.add_argument("--seat", default="rigid", choices=("rigid", "per_spring"),
+                   help="the rail seat (SupportParameters.seat); the note's tables: per_spring")
     a = p.parse_args(argv)
+    SEAT["seat"] = a.seat
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
     if a.from_json:  # the closed form is cheap: recomputed
         res = json.loads(Path(a.from_json).read_text())
@@ -366,8 +376,8 @@ def periodic_check(bands=(100.0, 315.0)) -> dict:
     """EN 15461 lateral decay rate (dB/m) of the discrete-support track as diagnose_sbb.py
     --lateral has it (wfe-periodic, 0.15 m pad in one row, supports 'zy'), base and with
     the pad's roll stiffness (grip_spec): {tag: {band: value}}."""
-    spec = rf.preset("site", model="wfe-periodic", pad_length=0.15, n_rows=1,
-                     support_directions="zy").replace(eta_r=ETA_R)
+    spec = with_seat(rf.preset("site", model="wfe-periodic", pad_length=0.15, n_rows=1,
+                               support_directions="zy").replace(eta_r=ETA_R))
     f = iec61260.ninth_octave_grid(*bands)
     out = {}
     for tag, s in (("base", spec), ("grip", grip_spec(spec))):
