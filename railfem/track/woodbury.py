@@ -275,8 +275,23 @@ class SupportUpdate:
         rhs[:, grp, slot, 0] = Da * b
         if gradient:
             rhs[:, grp, slot, 1:] = Da[:, :, None] * np.moveaxis(a, 1, 2)
-        z = np.linalg.solve(A, np.swapaxes(rhs.reshape(nb, n_g, n_slot * ncol, m_a), -1, -2))
-        z = np.swapaxes(z, -1, -2).reshape(nb, n_g, n_slot, ncol, m_a)
+        # groups of equal size solved together: no solves of the padding slots
+        classes = [(np.flatnonzero(np.bincount(grp, minlength=n_g) == c), c)
+                   for c in np.unique(np.bincount(grp, minlength=n_g))]
+        z = np.zeros_like(rhs)
+        for g_c, c in classes:
+            r = rhs[:, g_c, :c].reshape(nb, len(g_c), c * ncol, m_a)
+            z[:, g_c, :c] = np.swapaxes(np.linalg.solve(A[:, g_c], np.swapaxes(r, -1, -2)),
+                                        -1, -2).reshape(nb, len(g_c), c, ncol, m_a)
+
+        def gmul(x, m):  # x (nb, group, slot, ..., m_a) @ m (nb, group, m_a, q), by class
+            out = np.zeros(x.shape[:-1] + (m.shape[-1],), dtype=complex)
+            for g_c, c in classes:
+                xc = x[:, g_c, :c]
+                out[:, g_c, :c] = (xc.reshape(nb, len(g_c), -1, m_a) @ m[:, g_c]).reshape(
+                    xc.shape[:-1] + (m.shape[-1],))
+            return out
+
         y = z[:, grp, slot, 0]  # (nb, pair, m_a)
         u = u0 + np.einsum("fopm,fpm->fop", a, y)
         if not gradient:
@@ -288,9 +303,8 @@ class SupportUpdate:
         # du/dD_j = [(I + D C)^-T a]_j (b - C y)_j; for a spring with D_j = 0 the first
         # factor is a_j - sum_k C_kj D_k w_k (k active) and y_j = 0
         zy = z[:, :, :, 0]  # (nb, group, slot, m_a)
-        Cy = per_pair(zy @ Ct)
-        CzA = per_pair((z[:, :, :, 1:].reshape(nb, n_g, n_slot * n_out, m_a) @ Ct)
-                       .reshape(nb, n_g, n_slot, n_out, m_a))
+        Cy = per_pair(gmul(zy, Ct))
+        CzA = per_pair(gmul(z[:, :, :, 1:], Ct))
         w = np.moveaxis(np.moveaxis(a, 1, 2) - CzA, 2, 1)  # (nb, o, pair, m_a)
         dD = np.empty((nb, n_out, n_pair, pos.shape[1]), dtype=complex)
         dD[..., ia] = w * (b - Cy)[:, None]
@@ -301,18 +315,16 @@ class SupportUpdate:
             C_pa = MU[:, ppg[:, :, None], pg[:, None, :]]  # (nb, group, m_p, m_a)
             wD = np.zeros((nb, n_g, n_slot, n_out, m_a), dtype=complex)
             wD[:, grp, slot] = np.moveaxis(w * Da[:, None], 1, 2)
-            m_p = len(ip)
-            wC = per_pair((wD.reshape(nb, n_g, n_slot * n_out, m_a) @ C_ap)
-                          .reshape(nb, n_g, n_slot, n_out, m_p))
+            wC = per_pair(gmul(wD, C_ap))  # (nb, pair, o, m_p)
             w_p = R[:, :, p, pp_] - np.moveaxis(wC, 2, 1)
-            Cpy = per_pair(zy @ np.swapaxes(C_pa, -1, -2))
+            Cpy = per_pair(gmul(zy, np.swapaxes(C_pa, -1, -2)))
             dD[..., ip] = w_p * (Q[:, p, pp_] - Cpy)[:, None]
         if not uniform:
             return u, dD, None
         # d/dK with D held: du = du0 + da y + (w D) (db - dC y)
         pre = self._uniform_dK(f, K, Vu, Vc, sel, pre)
         dR, dQ, dMU, du0 = pre["dR"], pre["dQ"], pre["dMU"], pre["du0"]
-        dCy = per_pair(zy @ np.swapaxes(dMU[:, pg[:, :, None], pg[:, None, :]], -1, -2))
+        dCy = per_pair(gmul(zy, np.swapaxes(dMU[:, pg[:, :, None], pg[:, None, :]], -1, -2)))
         duK = (np.einsum("fopm,fpm->fop", dR[:, :, p, pa], y) - du0
                + np.einsum("fopm,fpm->fop", w * Da[:, None], dQ[:, p, pa] - dCy))
         return u, dD, duK
