@@ -34,14 +34,18 @@ from __future__ import annotations
 import logging
 import math
 from collections import OrderedDict
+from contextlib import contextmanager
 from dataclasses import replace
 
 import numpy as np
 
 from railfem import models
 from railfem.diagnosis.data import is_lateral
-from railfem.identify.forward import Geometry, SpectralEngine, checked_coupling, door_receptance
+from railfem.identify.forward import (Geometry, SpectralEngine, checked_coupling,
+                                      door_receptance, spectral_key)
 from railfem.identify.spectral import SpectralCoupling
+from railfem.track import kernelcache
+from railfem.track.coupling import couple_discrete
 from railfem.track.woodbury import SupportUpdate
 from railfem.track.sleeper import CASES as LOAD_CASES
 from railfem.track.supports import SupportParameters, dynamic_stiffness, horizontal_support
@@ -137,6 +141,21 @@ class Evaluator:
         self._banks: dict = {}
         self._updates: OrderedDict = OrderedDict()
         self.n_kernels = 0
+        self.screening = False  # see screen()
+        self._held: dict = {}  # kernels evaluated by the coupling solve while screening
+
+    @contextmanager
+    def screen(self):
+        """Within: a record's own kernel that has no eigen form yet is evaluated by the
+        coupling solve and kept (a grid value a refit screens once and does not refit never
+        costs the eigen form: about a second per WFE kernel); its next evaluation builds
+        the eigen form from it, as without screening. The two agree to the eigen form's
+        check (railfem.identify.forward.SPECTRAL_TOLERANCE, round-off in practice)."""
+        before, self.screening = self.screening, True
+        try:
+            yield
+        finally:
+            self.screening = before
 
     def receptance(self, spec, record, shift=(0.0, 0.0)) -> np.ndarray:
         shift = (float(shift[0]), float(shift[1]))
@@ -146,15 +165,12 @@ class Evaluator:
         if is_lateral(record):
             return lateral_receptance(spec, record, shift, self.cache)
         if spec.kind.is_discrete and spec.uniform:
-            if shift == (0.0, 0.0):
-                sc = self._plain(spec, record)
-            else:
-                shifts = self.shifts.get(record.name, [(0.0, 0.0)])
-                if shift not in shifts:  # an unregistered shift: a kernel of its own
-                    shifts = [(0.0, 0.0), shift]
-                sc = self._bank(spec, record, tuple(shifts))[shift]
-            a = sc.receptance(dynamic_stiffness(spec.support, 2 * np.pi * sc.frequency),
-                              batched=True)
+            a = self._screened(spec, record) if self.screening and shift == (0.0, 0.0) \
+                else None
+            if a is None:
+                sc = self._coupling(spec, record, shift)
+                a = sc.receptance(dynamic_stiffness(spec.support, 2 * np.pi * sc.frequency),
+                                  batched=True)
             n_out = len(record.fit.outputs)
             return np.repeat(a, n_out, axis=1) if a.shape[1] != n_out else a
         t = record.fit
@@ -260,21 +276,64 @@ class Evaluator:
         tangent.update({k: fit(v) for k, v in base_tangents(spec, w, da, daK).items()})
         return fit(a), tangent
 
+    def _coupling(self, spec, record, shift) -> SpectralCoupling:
+        """The eigen form of a uniform discrete track at the record's geometry shifted by
+        ``shift``."""
+        if shift == (0.0, 0.0):
+            return self._plain(spec, record)
+        shifts = self.shifts.get(record.name, [(0.0, 0.0)])
+        if shift not in shifts:  # an unregistered shift: a kernel of its own
+            shifts = [(0.0, 0.0), shift]
+        return self._bank(spec, record, tuple(shifts))[shift]
+
+    @staticmethod
+    def _plain_key(spec, record) -> tuple:
+        return (record.geometry_key, "plain", spec.model, float(spec.rail.eta),
+                float(spec.pad_length), spec.spacing, spec.n_rows, spec.n_supports,
+                spec.rail, spec.numerics)
+
+    @staticmethod
+    def _geometry(record) -> Geometry:
+        t = record.fit
+        return Geometry(frequency=t.frequency, outputs=t.outputs, sensor_x=t.sensor_x,
+                        force_x=t.force_x)
+
+    def _screened(self, spec, record):
+        """The record's own geometry while screening (screen()): the receptance by the
+        coupling solve of its kernel (kept for the eigen form), or None where the eigen
+        form is at hand or this kernel was screened before (the eigen form then pays)."""
+        key = self._plain_key(spec, record)
+        if key in self._banks or key in self._held or spec.support_directions != "z":
+            return None
+        canon = spec.replace(support=plain_support(spec.support))
+        geo = self._geometry(record)
+        if kernelcache.resolve(self.cache).get(spectral_key(canon, geo)) is not None:
+            return None
+        log.info("diagnosis: kernel of %s for %s (eta_r %.4g, pad length %.3g m), screened "
+                 "by the coupling solve", spec.model, record.name, spec.rail.eta,
+                 spec.pad_length)
+        held = models.discrete_kernel(canon, geo.frequency, geo.force_x, [geo.sensor_x],
+                                      outputs=geo.outputs, cache=self.cache)
+        self._held[key] = held
+        self.n_kernels += 1
+        kernel, jr, jf = held
+        K = dynamic_stiffness(spec.support, 2 * np.pi * geo.frequency)
+        pattern = canon.layout().springs().weight
+        return couple_discrete(kernel, K[:, None] * pattern[None, :])[:, :, jr[0], jf[0]]
+
     def _plain(self, spec, record) -> SpectralCoupling:
         """The record's own geometry: railfem.identify's engine, so the kernel and its
         eigen form computed by the base fit are reused (same content keys)."""
-        key = (record.geometry_key, "plain", spec.model, float(spec.rail.eta),
-               float(spec.pad_length), spec.spacing, spec.n_rows, spec.n_supports,
-               spec.rail, spec.numerics)
+        key = self._plain_key(spec, record)
         if key not in self._banks:
-            t = record.fit
-            geo = Geometry(frequency=t.frequency, outputs=t.outputs, sensor_x=t.sensor_x,
-                           force_x=t.force_x)
-            log.info("diagnosis: kernel of %s for %s (eta_r %.4g, pad length %.3g m)",
-                     spec.model, record.name, spec.rail.eta, spec.pad_length)
+            held = self._held.pop(key, None)
+            if held is None:
+                log.info("diagnosis: kernel of %s for %s (eta_r %.4g, pad length %.3g m)",
+                         spec.model, record.name, spec.rail.eta, spec.pad_length)
+                self.n_kernels += 1
             canon = spec.replace(support=plain_support(spec.support))
-            self._banks[key] = SpectralEngine(canon, geo, cache=self.cache).coupling
-            self.n_kernels += 1
+            self._banks[key] = SpectralEngine(canon, self._geometry(record),
+                                              cache=self.cache, kernel=held).coupling
         return self._banks[key]
 
     def _bank(self, spec, record, shifts) -> dict:

@@ -16,6 +16,7 @@ cost = sum (r / s_q)^2, AICc = cost + 2k + 2k(k+1)/(N-k-1), BIC = cost + k ln N.
 """
 from __future__ import annotations
 
+import contextlib
 import itertools
 import logging
 import math
@@ -208,6 +209,14 @@ def fit_fixed(problem: core.Problem, x_base, n_keep: int = 2):
     return best
 
 
+def _screening(evaluator):
+    """The evaluator's screening mode (railfem.diagnosis.evaluate.Evaluator.screen: a
+    kernel's first evaluation by the coupling solve, its eigen form only when refitted), or
+    nothing for an evaluator without one."""
+    screen = getattr(evaluator, "screen", None)
+    return screen() if screen is not None else contextlib.nullcontext()
+
+
 def _grid_combos(effects):
     keys, values = [], []
     for e in effects:
@@ -242,8 +251,9 @@ def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
         for combo in itertools.product(*values):
             pb = problem_for(combo)
             try:
-                starts = _starts(pb, x_base, 1)
-                c = pb.cost(starts[0])
+                with _screening(evaluator):  # ranks the combinations only
+                    starts = _starts(pb, x_base, 1)
+                    c = pb.cost(starts[0])
             except (ValueError, np.linalg.LinAlgError) as exc:
                 log.info("diagnosis: %s at %s skipped: %s", effects[0].name, combo, exc)
                 continue

@@ -37,7 +37,7 @@ from railfem.spec import TrackSpec, spec_to_dict
 from railfem.track import wfe as track_wfe
 from railfem.track.coupling import couple_discrete
 from railfem.track.directional import DirectionalSpectral, directional_spectral
-from railfem.track.directions import directional_stiffness
+from railfem.track.directions import PAD_ROLL, directional_stiffness
 from railfem.track.supports import dynamic_stiffness
 
 log = logging.getLogger(__name__)
@@ -86,13 +86,15 @@ def slow_names(space: ParameterSpace) -> tuple[str, ...]:
 
 
 def varied_directions(space: ParameterSpace) -> tuple[str, ...] | None:
-    """The directions ('z', 'y', 'x', 'r': railfem.models.spring_directions) whose support
-    stiffness the fitted support parameters of ``space`` change (the pad - sleeper -
-    ballast chain of each, railfem.track.directions.chain; on a track with lateral and
-    longitudinal springs the sleeper's horizontal fields kb_lat, eta_b_lat, ms_lat enter
-    both); None when a fitted parameter is neither a support nor a kernel parameter."""
+    """The directions ('z', 'y', 'x', 'r': railfem.models.spring_directions, and the
+    vertical springs' roll part PAD_ROLL with 'z') whose support stiffness the fitted
+    support parameters of ``space`` change (the chain of each, railfem.track.directions
+    .chain: on a track with lateral and longitudinal springs the sleeper's horizontal
+    fields kb_lat, eta_b_lat, ms_lat enter both; the vertical pad enters 'z' and PAD_ROLL);
+    None when a fitted parameter is neither a support nor a kernel parameter."""
     sup = space.base.support
-    dirs = models.spring_directions(space.base)
+    dirs = list(models.spring_directions(space.base))
+    dirs += [PAD_ROLL] if "z" in dirs else []
     out: set[str] = set()
     for name in space.names:
         if name in SLOW:
@@ -127,21 +129,20 @@ class SpectralEngine:
     """A uniform discrete track (wfe-discrete, timoshenko-discrete) at fixed kernel
     parameters: receptance(spec) for any support parameters in a few milliseconds."""
 
-    def __init__(self, spec: TrackSpec, geometry: Geometry, cache=False, progress=None):
-        g = self.geometry = geometry
+    def __init__(self, spec: TrackSpec, geometry: Geometry, cache=False, progress=None,
+                 kernel=None):
+        g, given = geometry, kernel
+        self.geometry = g
         self.kernel_values = kernel_values(spec)
         self.omega = 2 * np.pi * g.frequency
         self.beam = spec.is_beam
         store = kernelcache.resolve(cache)
-        canon = spec.replace(kp=1.0, eta_p=0.0, kb=1.0, eta_b=0.0, ms=1.0, name="fit")
-        key = kernelcache.content_key("spectral-fit", __version__,
-                                      str(spec_to_dict(canon)), g.frequency, g.force_x,
-                                      float(g.sensor_x), g.outputs)
+        key = spectral_key(spec, g)
 
-        def compute():
-            kernel, jr, jf = models.discrete_kernel(spec, g.frequency, g.force_x,
-                                                    [g.sensor_x], outputs=g.outputs,
-                                                    cache=cache, progress=progress)
+        def compute():  # given: (kernel, jr, jf) of models.discrete_kernel, if at hand
+            kernel, jr, jf = given or models.discrete_kernel(
+                spec, g.frequency, g.force_x, [g.sensor_x], outputs=g.outputs, cache=cache,
+                progress=progress)
             soft = replace(spec.support, kp=spec.support.kp / 10, kb=spec.support.kb / 10)
             sc = checked_coupling(kernel, spec, jr[0], jf[0], (spec.support, soft),
                                   g.frequency)
@@ -232,6 +233,13 @@ def checked_directional(kernel, spec: TrackSpec, jr, jf, direction: str) -> Dire
         raise RuntimeError(f"the eigen form in the {direction!r} stiffness differs from the "
                            f"coupling solve by {err:.1e} (relative) for {spec.model}")
     return form
+
+
+def spectral_key(spec: TrackSpec, g: Geometry) -> str:
+    """The content key of SpectralEngine's eigen form of ``spec`` at ``g``."""
+    canon = spec.replace(kp=1.0, eta_p=0.0, kb=1.0, eta_b=0.0, ms=1.0, name="fit")
+    return kernelcache.content_key("spectral-fit", __version__, str(spec_to_dict(canon)),
+                                   g.frequency, g.force_x, float(g.sensor_x), g.outputs)
 
 
 def checked_coupling(kernel, spec: TrackSpec, jr, jf, supports, frequency) -> SpectralCoupling:
