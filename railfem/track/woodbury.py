@@ -288,7 +288,8 @@ class SupportUpdate:
             out = np.zeros(x.shape[:-1] + (m.shape[-1],), dtype=complex)
             for g_c, c in classes:
                 xc = x[:, g_c, :c]
-                out[:, g_c, :c] = (xc.reshape(nb, len(g_c), -1, m_a) @ m[:, g_c]).reshape(
+                rows = int(np.prod(xc.shape[2:-1]))  # explicit: m_a may be 0
+                out[:, g_c, :c] = (xc.reshape(nb, len(g_c), rows, m_a) @ m[:, g_c]).reshape(
                     xc.shape[:-1] + (m.shape[-1],))
             return out
 
