@@ -66,6 +66,7 @@ CASES = {
         i: tuple(np.exp(np.random.default_rng(i + 8).normal(0, [0.3, 0.5])))
         for i in range(-8, 25)},
     "one changed, two at the mean": {2: (1.0, 0.05), 6: (1.0, 1.0), -3: (1.0, 1.0)},
+    "all at the mean": {2: (1.0, 1.0), 6: (1.0, 1.0), -3: (1.0, 1.0)},  # no active support
 }
 
 
@@ -98,7 +99,7 @@ def test_woodbury_uniform_is_the_uniform_track(case):
 
 
 @pytest.mark.parametrize("name", ["three supports scaled", "random factors on 33 supports",
-                                  "one changed, two at the mean"])
+                                  "one changed, two at the mean", "all at the mean"])
 def test_woodbury_derivatives_against_central_differences(case, name):
     spec, kernel, jr, jf, shift, pattern, su = case
     K, k_dev, idx = stiffness(spec, CASES[name])
