@@ -49,8 +49,11 @@ def test_auto_picks_the_eigen_form_where_one_direction_varies():
     # the sleeper's horizontal fields carry the longitudinal springs as well
     assert kind("zyx", LATERAL) == (("y", "x"), "direct")
     assert kind("zyx", ("kp_lat", "eta_p_lat")) == (("y",), "eigen")
-    # vertical parameters on a track with horizontal springs: the eigen form in z
-    assert kind("zyx", ("kp", "eta_p", "kb")) == (("z",), "eigen")
+    # the vertical pad acts on the vertical springs' sum and on their difference (the
+    # foot's roll against the seat): two stiffnesses, no eigen form in one
+    assert kind("zy", ("kp", "eta_p", "kb")) == (("z", "z-"), "direct")
+    # the vertical chain of a lateral load's kernel: the springs' roll part is not held
+    assert kind("zy", ("kb", "eta_b")) == (("z",), "direct")
     with pytest.raises(ValueError, match="one direction only"):
         ForwardModel(ParameterSpace(small_base("zyx"), LATERAL), _geometry(), engine="eigen")
 

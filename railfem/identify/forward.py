@@ -290,9 +290,11 @@ class ForwardModel:
         spectral_ok = (space.base.kind.is_discrete and space.base.uniform
                        and space.base.support_directions == "z" and geometry.force == "head")
         varied = varied_directions(space)
+        # a lateral load's kernel has the vertical springs' roll part (PAD_ROLL) as well,
+        # which railfem.track.directional does not hold for the vertical chain
         eigen_ok = (space.base.kind.is_discrete and space.base.uniform and space.base.is_wfe
                     and models.spring_directions(space.base) != "z" and varied is not None
-                    and len(varied) == 1)
+                    and len(varied) == 1 and (varied != ("z",) or geometry.force == "head"))
         self.direction = varied[0] if eigen_ok else None
         if engine == "auto":
             engine = "spectral" if spectral_ok else ("eigen" if eigen_ok else "direct")
