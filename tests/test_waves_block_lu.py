@@ -83,3 +83,19 @@ def test_blockwise_solve_equals_a_solve_of_the_whole_matrix():
         ref = spl.spsolve(Z, r)
         got = ops.factorised(om)(r)
         assert np.abs(got - ref).max() < 1e-10 * np.abs(ref).max()
+
+
+def test_undamped_rail_on_a_lossy_foundation_is_solved_in_complex_arithmetic():
+    """A rail without loss (c = 1) on a foundation of complex stiffness: the frequency
+    matrix is complex although c is real; shift-invert gives the dense solve's waves."""
+    g = rail(0.0)
+    ops = waves.FamilyOperators(g, "symmetric")
+    n = ops.B0.shape[0]
+    bed = sp.diags(np.r_[np.zeros(n - 12), np.ones(12)]).tocsc()  # last in-plane DOFs
+    ops.extra = lambda omega: (2e8 + 4e7j) * bed
+    om = 2 * np.pi * 900.0
+    got = waves.waves_at(ops, om, method="shift-invert", n_waves=15).k
+    ref = waves.waves_at(ops, om, method="dense").k[:15]
+    assert np.iscomplexobj(got) and np.abs(got.imag).min() > 0
+    err = np.abs(got[:, None] ** 2 - ref[None, :] ** 2).min(axis=1) / np.abs(got) ** 2
+    assert err.max() < 1e-8, err.max()

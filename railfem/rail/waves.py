@@ -113,7 +113,7 @@ class FamilyOperators:
         has no axial/in-plane coupling, K0' keeps K1's ap block only), so it is solved by one
         LU of each diagonal block and a product with the constant ap block: less fill, and
         faster, than one LU of the whole matrix. A foundation coupling the blocks falls back
-        to one LU. r may be one vector or a block of columns."""
+        to one LU. r may be one vector or a block of columns; solve.dtype is Z's."""
         c = self.c if c is None else c
         s = omega**2 / c if complex(c).imag else omega**2 / complex(c).real
         data = self.k0_data - s * self.m_data
@@ -130,7 +130,12 @@ class FamilyOperators:
             return _block_solver(Z[:na, :na].tocsc(), Z[na:, na:].tocsc(),
                                  Z[:na, na:].tocsr(), na)
         lu = spl.splu(Z, permc_spec="MMD_AT_PLUS_A")
-        return lu.solve
+
+        def solve(r):
+            return lu.solve(np.asarray(r, dtype=np.result_type(Z.dtype, r.dtype)))
+
+        solve.dtype = Z.dtype
+        return solve
 
     @property
     def key(self) -> bytes:
@@ -210,6 +215,7 @@ def _block_solver(Zaa, Zpp, Zap, na: int):
         xa = la.solve(r[:na] - real_times(Zap, xp))
         return np.concatenate([xa, xp])
 
+    solve.dtype = dtype  # complex with a loss factor or a complex foundation stiffness
     return solve
 
 
@@ -372,8 +378,7 @@ def _lambdas_shift_invert(ops: FamilyOperators, omega: float, n: int, c: complex
     N = ops.B0.shape[0]
     n = min(n, N - 2)
     solve = ops.factorised(omega, c)
-    damped = complex(c).imag != 0 or np.iscomplexobj(omega)
-    dtype = complex if damped else float
+    dtype = solve.dtype
     B = ops.B0r
     op = spl.LinearOperator(B.shape, dtype=dtype,
                             matvec=lambda x: -solve(real_times(B, x)))
