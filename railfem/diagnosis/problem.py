@@ -84,15 +84,21 @@ class EffectModel:
                 ps.append(Parameter(name=f"{e.name}.{p.name}", unit=q.unit, log=q.log,
                                     lower=q.lower, upper=q.upper))
         self.box = Box(ps)
+        self._thetas = (None, None)  # the last thetas: (x's bytes, values)
 
     def thetas(self, x) -> dict:
-        out = {e.name: {} for e in self.effects}
-        for p, xi in zip(self.box.parameters[len(BASE):], x[len(BASE):]):
-            e, n = p.name.split(".", 1)
-            out[e][n] = p.decode(xi)
-        for (e, n), v in self.grid.items():
-            out[e][n] = v
-        return out
+        """{effect: {parameter: value}} of the vector x (the last one's kept: a Jacobian
+        column asks for it twice)."""
+        key = np.asarray(x, dtype=float).tobytes()
+        if self._thetas[0] != key:
+            out = {e.name: {} for e in self.effects}
+            for p, xi in zip(self.box.parameters[len(BASE):], x[len(BASE):]):
+                e, n = p.name.split(".", 1)
+                out[e][n] = p.decode(xi)
+            for (e, n), v in self.grid.items():
+                out[e][n] = v
+            self._thetas = (key, out)
+        return {e: dict(v) for e, v in self._thetas[1].items()}
 
     def base_spec(self, x):
         vals = {p.name: p.decode(xi) for p, xi in zip(self.box.parameters, x[:len(BASE)])}
