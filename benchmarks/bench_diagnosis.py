@@ -18,6 +18,8 @@ git worktree of the code before, e.g. ``git worktree add /tmp/railfem-before <co
 each model is run with that code too, in the same session, and the row gets the CPU ratio
 old / new and the largest differences of the two diagnosis.json (verdict, chosen effect,
 ranks, kept flags; relative differences of the candidates' dBIC and parameters).
+With --ref DIR (the same code as --new without the changes under test) that run is added
+and compared with the new one: what the changes alone do to the results.
 The table is printed and written to --out.
 """
 from __future__ import annotations
@@ -51,6 +53,11 @@ def parse_args(argv=None):
     p.add_argument("--new", type=Path, default=None,
                    help="a checkout of railfem to run as the new code (default: the one "
                         "installed)")
+    p.add_argument("--ref", type=Path, default=None,
+                   help="a checkout equal to --new but for the changes under test (e.g. a "
+                        "worktree of the same commit with them reverted): run as well, its "
+                        "diagnosis.json compared with new's (the changes' own effect on the "
+                        "results, apart from other changes since --old)")
     p.add_argument("--parallel", action="store_true",
                    help="run the old and the new code at the same time (CPU times are each "
                         "run's own; the wall times then share the machine)")
@@ -124,17 +131,19 @@ def compare(old_json: str, new_json: str) -> str:
         return {p["name"]: p["value"] for p in ps or []
                 if isinstance(p.get("value"), (int, float))}
 
-    groups = [(a["base"]["parameters"], b["base"]["parameters"]),
-              ((a.get("chosen") or {}).get("parameters"),
+    groups = [("base", a["base"]["parameters"], b["base"]["parameters"]),
+              ("chosen", (a.get("chosen") or {}).get("parameters"),
                (b.get("chosen") or {}).get("parameters"))]
-    groups += [(ra[n].get("parameters"), rb[n].get("parameters")) for n in ra if n in rb]
-    d_par = 0.0
-    for ga, gb in groups:
+    groups += [(n, ra[n].get("parameters"), rb[n].get("parameters")) for n in ra if n in rb]
+    d_par, where = 0.0, ""
+    for g, ga, gb in groups:
         pa, pb = values(ga), values(gb)
-        d_par = max([d_par] + [rel(pa[k], pb[k]) for k in pa if k in pb])
+        for k in pa:
+            if k in pb and rel(pa[k], pb[k]) > d_par:
+                d_par, where = rel(pa[k], pb[k]), f" ({g}: {k} {pa[k]:.6g} -> {pb[k]:.6g})"
     flags = "same" if all(same) else "DIFFERENT (verdict, chosen, ranks, kept: " + \
         ", ".join(str(s) for s in same) + ")"
-    return f"{flags}; dBIC rel. {d_bic:.1e}, parameters rel. {d_par:.1e}"
+    return f"{flags}; dBIC rel. {d_bic:.1e}, parameters rel. {d_par:.1e}{where}"
 
 
 def main(argv=None):
@@ -160,7 +169,8 @@ def main(argv=None):
     tmp = Path(tempfile.mkdtemp(prefix="bench_diagnosis_"))
     notes = []
     for model in args.models:
-        runs = [("new", args.new)] + ([("old", args.old)] if args.old else [])
+        runs = [("new", args.new)] + ([("old", args.old)] if args.old else []) \
+            + ([("ref", args.ref)] if args.ref else [])
         got = {}
         if args.parallel:  # side by side: each one's CPU time is its own
             procs = {tag: start(args, model, code, tmp / f"{model}_{tag}") for tag, code in runs}
@@ -176,9 +186,10 @@ def main(argv=None):
                          f"{s['pairs']:6.1f} {s['final']:6.1f} {r['wall']:7.1f} "
                          f"{r['cpu']:7.1f} {r['candidates']:5d} {ratio:6.2f}  "
                          f"{r['verdict']}: {r['chosen'] or '-'}")
-        if "old" in got:
-            notes.append(f"  {model}: diagnosis.json old vs new: "
-                         + compare(got["old"]["diagnosis"], got["new"]["diagnosis"]))
+        for tag in ("old", "ref"):
+            if tag in got:
+                notes.append(f"  {model}: diagnosis.json {tag} vs new: "
+                             + compare(got[tag]["diagnosis"], got["new"]["diagnosis"]))
         notes += [f"  {model} {tag}: railfem from {got[tag]['code']}" for tag, _ in runs]
     text = "\n".join(lines + [""] + notes) + "\n"
     print(text)
