@@ -214,8 +214,9 @@ def fit_summary(res, data, label: str = "") -> list[str]:
         L.append(f"largest band residual: {worst[1]} ({worst[2]}) {worst[0]:.1f} dB in "
                  f"the {worst[3]:g} Hz band")
         if worst[0] >= STRUCTURED_DB:
+            rows = " --select dir=h" if "head_lateral" in t.outputs else ""  # lateral rows
             nxt.append(f"the residual reaches {worst[0]:.1f} dB in a band: run `railfem "
-                       f"diagnose {data}` to trace it to an effect the model leaves out")
+                       f"diagnose {data}{rows}` to trace it to an effect the model leaves out")
     bad = [p["name"] for p in res.parameters if p["identifiable"] == "no"]
     if bad:
         nxt.append(f"{', '.join(bad)} not determined by these data: fix "
