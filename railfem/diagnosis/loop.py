@@ -201,7 +201,7 @@ def held_gate(ref: Outcome, cand: Outcome, pred_ref=None, pred_c=None) -> dict:
     p = min(1.0, 2 * min(p_t, p_w))  # either test, Bonferroni: still at most ALPHA
     red = 1 - mse_c / mse_ref if mse_ref > 0 else 0.0
     # judged against noise plus discrepancy: the change must exceed the model-form one
-    disc = resid.beyond_discrepancy(ref.problem.model.data, pr, pc, scale, alpha=ALPHA)
+    disc = resid.beyond_discrepancy(ref.problem.model.data, pr, pc, scale, alpha=ALPHA, ref=ref)
     return {"blocks": int(len(d)), "mse_ref": mse_ref, "mse": mse_c, "reduction": red,
             "t": tval, "p_t": p_t, "p_wilcoxon": p_w, "p": p, "discrepancy": disc,
             "pass": bool(p < ALPHA and red >= MIN_GAIN and (disc is None or disc["pass"]))}

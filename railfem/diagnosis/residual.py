@@ -295,7 +295,7 @@ def structure_test(res: Residual, *, part="fit", alpha: float = ALPHA,
 
 
 def beyond_discrepancy(data, pred_ref: dict, pred_c: dict, discrepancy, *, part="held",
-                       alpha: float = ALPHA) -> dict | None:
+                       alpha: float = ALPHA, ref=None) -> dict | None:
     """Whether a candidate changes the prediction by more than the model-form discrepancy:
     the discrepancy test (discrepancy_test, no noise) on the change model_c - model_ref
     over ``part`` of every record; 'pass' when the change's mean square reaches a share of
@@ -309,19 +309,22 @@ def beyond_discrepancy(data, pred_ref: dict, pred_c: dict, discrepancy, *, part=
     the variants where it acts: a change the size of the discrepancy of the few bands it
     touches, in the direction the variants move the model (another mesh's cut-on offset
     absorbed by a foot thickness), passes the first and fails the second; a cut-on moved
-    far beyond the variants' spread passes both. None without discrepancy (a
+    far beyond the variants' spread passes both. ``ref``: the reference's refit (an object
+    with ``problem`` and ``x``: railfem.diagnosis.refit.Outcome), whose base parameters
+    are then held free in the along test (base_tables). None without discrepancy (a
     Discrepancy, or a Scale that carries one)."""
     discrepancy = getattr(discrepancy, "discrepancy", discrepancy)
     if discrepancy is None:
         return None
-    ref = make_residual(data, pred_ref, (part,), discrepancy=discrepancy)
+    before = make_residual(data, pred_ref, (part,), discrepancy=discrepancy)
     cand = make_residual(data, pred_c, (part,), discrepancy=discrepancy)
     change = [Block(**{**a.__dict__, "values": a.values - b.values, "variance": None})
-              for a, b in zip(ref.blocks, cand.blocks) if a.quantity != "phase"]
+              for a, b in zip(before.blocks, cand.blocks) if a.quantity != "phase"]
     out = discrepancy_test(change, 0.0)
     if out is None:
         return None
-    out["along"] = along_discrepancy(data, pred_ref, pred_c, discrepancy)
+    base = None if ref is None else base_tables(ref.problem, ref.x)
+    out["along"] = along_discrepancy(data, pred_ref, pred_c, discrepancy, base=base)
     along = out["along"]
     out["pass"] = bool(out["ratio"] > BEYOND_RATIO
                        and (along is None or along["z2"] > along["threshold"]))
@@ -329,7 +332,7 @@ def beyond_discrepancy(data, pred_ref: dict, pred_c: dict, discrepancy, *, part=
     return out
 
 
-def along_discrepancy(data, pred_ref: dict, pred_c: dict, scale) -> dict | None:
+def along_discrepancy(data, pred_ref: dict, pred_c: dict, scale, base=None) -> dict | None:
     """The candidate's change against the discrepancy **along that change**: the
     ensemble's variants (Discrepancy.samples: d_j, each variant minus the base) projected
     on the change c = model_c - model_ref over the fitted part of every record, both
@@ -347,15 +350,28 @@ def along_discrepancy(data, pred_ref: dict, pred_c: dict, scale) -> dict | None:
     differences there are a shift of the cut-on, and an effect that shifts it (the foot's
     thickness) is judged by its shift against theirs (300 Hz against a spread of about
     50 Hz), not by its level change against the band's level variance, which the same
-    shift inflates. {'z2', 'theta': per variant, 'variants', 'threshold':
-    along_threshold}; None without samples
-    (a Discrepancy given as variances only) or without a change."""
+    shift inflates.
+
+    ``base`` (base_tables: the base parameters' derivatives at the reference): the step
+    along c is estimated with the base parameters free, as the refit estimates it, so c
+    and each d_j enter by their parts the base cannot fit (c_perp = c - B b, the weighted
+    least-squares residual of c on the base columns B; theta_j = c_perp'w d_j /
+    c_perp'w c_perp). What the base absorbs of a variant (a spring rule that reads as a
+    stiffer pad) then does not count as a shift of the candidate: a pad stiffening with
+    frequency changes the prediction the way the node-spring variant does to 0.8 of its
+    size when the base is held, to a fraction of that once kp and eta_p may move. {'z2',
+    'theta': per variant, 'variants', 'threshold': along_threshold, 'base_free'}; None
+    without samples (a Discrepancy given as variances only) or without a change."""
     disc = getattr(scale, "discrepancy", scale)
     samples = getattr(disc, "samples", None)
     if not samples:
         return None
     noise = scale if disc is not scale else {}
-    cc, cd = 0.0, np.zeros(len(disc.variants))
+    nb = 0 if not base else len(next(iter(base.values())))
+    nv = len(disc.variants)
+    # Gram matrix of [B, c, D] over the entries (weighted): rows/cols 0..nb-1 the base,
+    # nb the change, nb+1.. the variants
+    G = np.zeros((nb + 1, nb + 1 + nv))
     for r in data.records:
         ta, tb = table(r.fit, pred_ref[r.name]), table(r.fit, pred_c[r.name])
         for q in ta:
@@ -364,16 +380,63 @@ def along_discrepancy(data, pred_ref: dict, pred_c: dict, scale) -> dict | None:
                 continue
             c = np.asarray(tb[q], dtype=float) - np.asarray(ta[q], dtype=float)
             w = 1.0 / np.asarray(table_scale(noise, r.fit, q, c.shape), dtype=float) ** 2
+            cols = [np.asarray(d, dtype=float) for d in (base or {}).get((r.name, q), ())]
+            if nb and len(cols) != nb:
+                continue
             used = used_entries(r.fit, q) & np.isfinite(c)
-            cw = np.where(used, c * w, 0.0)
-            cc += float(np.sum(cw * np.where(used, c, 0.0)))
-            cd += np.nansum(np.where(used, S, 0.0) * cw, axis=tuple(range(1, S.ndim)))
-    if not cc > 0:
+            for col in cols:
+                used &= np.isfinite(col)
+            ww = np.where(used, np.broadcast_to(w, c.shape), 0.0)
+            left = [np.where(used, v, 0.0) for v in cols + [c]]
+            right = left + [np.where(used, d, 0.0) for d in S]
+            for i, u in enumerate(left):
+                G[i] += [float(np.sum(u * ww * v)) for v in right]
+    cc0 = G[nb, nb]
+    if nb:  # c and the variants less what the base columns fit of them (Schur complement)
+        A_inv = np.linalg.pinv(G[:nb, :nb])
+        G = G[nb:, nb:] - G[nb:, :nb] @ A_inv @ G[:nb, nb:]
+    cc, cd = G[0, 0], G[0, 1:]
+    if not (cc0 > 0 and cc > 1e-9 * cc0):  # no change, or one the base fits entirely
         return None
     theta = cd / cc
     ms = float(disc.factor * np.mean(theta ** 2))
     return {"z2": float("inf") if ms == 0 else 1.0 / ms, "theta": theta.round(4).tolist(),
-            "variants": list(disc.variants), "threshold": along_threshold(len(theta))}
+            "variants": list(disc.variants), "threshold": along_threshold(nv),
+            "base_free": bool(nb)}
+
+
+def base_tables(problem, x, *, n_base: int = 4, step: float = 1e-3) -> dict:
+    """{(record, quantity): [d table / d x_i for the first ``n_base`` entries of x]} (dB per
+    vector unit) on the axes of the records' fitted tables: forward differences of
+    ``problem``'s prediction (railfem.identify.problem.Problem) at ``x``, a step inside
+    the box. The reference's base parameters for along_discrepancy; memoised for the last
+    few (problem, x): the screening asks for the base's at every candidate."""
+    key = (id(problem), np.asarray(x, dtype=float).tobytes(), n_base)
+    hit = _BASE_MEMO.get(key)
+    if hit is not None and hit[0] is problem:
+        return hit[1]
+    x = np.asarray(x, dtype=float)
+    p0 = problem.predict(x)
+    t0 = {r.name: table(r.fit, p0[r.name]) for r in problem.records}
+    out: dict = {}
+    hi = problem.box.upper
+    for i in range(min(n_base, len(x))):
+        h = step if x[i] + step <= hi[i] else -step
+        xi = x.copy()
+        xi[i] += h
+        pi = problem.predict(xi)
+        for r in problem.records:
+            ti = table(r.fit, pi[r.name])
+            for q, v in ti.items():
+                d = (np.asarray(v, dtype=float) - np.asarray(t0[r.name][q], dtype=float)) / h
+                out.setdefault((r.name, q), []).append(d)
+    if len(_BASE_MEMO) >= 4:
+        _BASE_MEMO.pop(next(iter(_BASE_MEMO)))
+    _BASE_MEMO[key] = (problem, out)
+    return out
+
+
+_BASE_MEMO: dict = {}
 
 
 def discrepancy_test(used, sigma_w: float) -> dict | None:
