@@ -29,8 +29,8 @@ from railfem.diagnosis.problem import BASE, Box, Problem, regrid
 from railfem.identify import problem as core
 from railfem.identify import uncertainty
 from railfem.identify.problem import SlowProfile, parabola_step, parabola_vertex
-from railfem.diagnosis.intervals import (grid_inflation, grid_shift_variance,
-                                         interval_from_profile, widen)
+from railfem.diagnosis.intervals import (discrepancy_terms, grid_inflation,
+                                         grid_shift_variance, interval_from_profile, widen)
 from railfem.params import Parameter
 
 log = logging.getLogger(__name__)
@@ -548,7 +548,7 @@ def _analyse(problem: core.Problem, box, v, J, r, clusters, unfitted: bool = Tru
     (``unfitted``) the scatter of the effects' unfitted support factors
     (Problem.unfitted_jacobian)."""
     N = problem.unfitted_jacobian(v[:len(problem.box.parameters)]) if unfitted else None
-    Nd = problem.discrepancy_columns()  # the model-form discrepancy: random terms as well
+    Nd = discrepancy_terms(problem, len(r) - len(v))  # the model-form discrepancy as well
     out = uncertainty.analyse(box, v, J, r, clusters=clusters,
                               nuisance=N if Nd is None else np.hstack([x for x in (N, Nd)
                                                                        if x is not None]))
