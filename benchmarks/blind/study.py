@@ -70,16 +70,17 @@ def run_case(case: str, seed: int, *, model: str = g.MODEL, f=None, effects=None
 
 
 def _base_coverage(d) -> dict:
-    """The base parameters (kp, eta_p, kb, eta_b, eta_r) against the generator's truth:
-    value, 95 % interval, inside, half-width (vector units: decades)."""
+    """The base parameters (kp, eta_p, kb, eta_b, eta_r) of the final model (the chosen
+    one; the base when none is chosen: the base of an effect case has absorbed the effect)
+    against the generator's truth: value, 95 % interval, inside, half-width (decades)."""
     out = {}
-    for p in d.base.parameters():
-        if p["name"] in g.TRUTH and p.get("ci95"):
+    for p in (d.chosen or d.base).parameters():
+        if p["name"] in g.TRUTH and p.get("ci95") and p.get("group", "base") == "base":
             lo, hi = p["ci95"]
             out[p["name"]] = {"value": p["value"], "ci95": [lo, hi],
                               "inside": bool(lo <= g.TRUTH[p["name"]] <= hi),
-                              "half_width": p.get("std_vector", float("nan"))
-                              * d.base.analysis.get("t_quantile", 1.96)}
+                              "half_width": float(np.log10(hi / lo) / 2), "model":
+                              d.chosen.name if d.chosen is not None else "base"}
     return out
 
 
