@@ -8,6 +8,9 @@ from the code:
   (the document's own folder: a snippet writes a dataset, a later command reads it);
 * the Python snippets of one document share one namespace (they chain, as a reader who
   pastes them one after the other into one session would run them);
+* a long document is cut into independent chains (``CHAINS``: a block that needs nothing
+  from the blocks above it starts a chain of its own, with its own folder and namespace),
+  so that its blocks run on both pytest-xdist workers;
 * a shell block runs with ``bash -e`` and ``railfem`` on PATH; it must exit with code 0
   (``console`` blocks: only the lines starting with ``$ ``).
 
@@ -53,6 +56,13 @@ SKIPPED = [
 ]
 #: a shell block with one of these may not run from the doc test (it installs or recurses)
 MUST_SKIP = ("scripts/setup.sh", "pytest", "pip install", "venv")
+#: (document, text of a block): that block needs nothing the blocks above it made or defined
+#: and starts a chain of its own (own working directory, namespace and xdist group); the
+#: blocks below it, up to the next chain start, belong to its chain
+CHAINS = [
+    ("README.md", "railfem track --preset site --h 20 --f-high 1000 --out out/site"),
+    ("README.md", 'rf.io.write_dataset("site_hammer", m)'),
+]
 TIMEOUT = 1800
 
 _FENCE = re.compile(r"^```\s*([A-Za-z0-9_+-]*)\s*$")
@@ -98,6 +108,14 @@ def blocks(path: Path) -> list[Block]:
 
 
 ALL = [b for p in DOCS for b in blocks(p)]
+
+
+def chain(block: Block) -> str:
+    """The chain ``block`` belongs to: its document, with '#n' after the n-th chain start
+    (CHAINS) at or above it."""
+    n = sum(1 for b in ALL if b.doc == block.doc and b.line <= block.line
+            and any(doc == b.doc and text in b.text for doc, text in CHAINS))
+    return block.doc if n == 0 else f"{block.doc}#{n}"
 
 
 @dataclass
@@ -157,7 +175,7 @@ def _run(block: Block, state: DocState) -> None:
 
 def _params():
     for b in ALL:
-        marks = [pytest.mark.xdist_group(b.doc)]  # a document's chained blocks: one worker
+        marks = [pytest.mark.xdist_group(chain(b))]  # a chain's blocks: one worker
         if b.mark == "slow":
             marks.append(pytest.mark.slow)
         elif b.mark == "skip":
@@ -167,10 +185,10 @@ def _params():
 
 @pytest.mark.parametrize("block", list(_params()))
 def test_doc_block(block: Block, states):
-    """The block runs; the document's earlier default blocks run first when they have not."""
-    state = states(block.doc)
+    """The block runs; its chain's earlier default blocks run first when they have not."""
+    state = states(chain(block))
     for b in ALL:
-        if b.doc != block.doc or b.line >= block.line:
+        if b.doc != block.doc or b.line >= block.line or chain(b) != chain(block):
             continue
         if b.mark == "" and b.line not in state.done:
             _run(b, state)
@@ -188,6 +206,14 @@ def test_skipped_blocks_are_the_listed_ones():
     skipped = [(b.doc, b.reason) for b in ALL if b.mark == "skip"]
     assert skipped == SKIPPED
     assert f"Skipped blocks ({len(SKIPPED)})" in __doc__
+
+
+def test_every_chain_start_names_one_block():
+    """A CHAINS entry that matches no block (the docs changed) or several would silently
+    move blocks between chains."""
+    for doc, text in CHAINS:
+        hits = [b.id for b in ALL if b.doc == doc and text in b.text]
+        assert len(hits) == 1, (doc, text, hits)
 
 
 def test_installing_and_recursing_blocks_are_marked_skip():
