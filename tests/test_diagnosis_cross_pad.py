@@ -1,9 +1,9 @@
 """Pads on hammer data from a WFE model of another form (benchmarks.blind generators,
 form='cross': a straight-sided 7.5 mm mesh, 8 springs at the foot nodes, a finite pad in
 4 rows), diagnosed on wfe-discrete: the pad's length is named with the held-out error
-down by more than half (the estimator's pad in two rows), and the along-the-change gate
-holds the base parameters free as the refit does (railfem.diagnosis.residual.
-along_discrepancy with base columns)."""
+down by more than half (the estimator's pad in two rows), a pad stiffening with frequency
+is named, and the along-the-change gate holds the base parameters free as the refit does
+(railfem.diagnosis.residual.along_discrepancy with base columns)."""
 from __future__ import annotations
 
 import math
@@ -122,16 +122,33 @@ def test_pad_length_is_named_on_cross_model_data():
         assert lo <= g.TRUTH[n] <= hi, (n, ps[n]["value"], lo, hi)
 
 
+def test_pad_frequency_is_named_on_cross_model_data():
+    """A pad stiffening threefold about 400 Hz (fractional Zener, as the effect's law) in
+    the other model: pad_frequency named, held-out error down by more than half, ratio and
+    corner inside their intervals. Before the along-the-change gate held the base free and
+    weighed the data as the fit does, the variants seemed to move the estimate by a third
+    of its change (on the study's full data z^2 8.9 < 10.1, now 27) and the verdict was
+    'consistent'."""
+    d = run("pad_frequency", 0, lines(1, 80.0, 4000.0), ("pad_frequency",), every=2)
+    assert d.chosen is not None and d.chosen.name == "pad_frequency", d.statement
+    assert d.chosen_row["final_held_out"]["reduction"] >= 0.5, d.chosen_row["final_held_out"]
+    ps = {p["name"]: p for p in d.chosen.parameters()}
+    for n in ("ratio", "fc"):
+        lo, hi = ps[f"pad_frequency.{n}"]["ci95"]
+        assert lo <= g.CASES["pad_frequency"][n] <= hi, (n, ps[f"pad_frequency.{n}"])
+
+
 @pytest.mark.slow
+@pytest.mark.parametrize("case", ["pad_length", "pad_frequency"])
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_pad_length_named_every_position_default_library(seed):
-    """The default library on every position and line of the study: pad_length explains
-    the residual with the held-out error down by at least half."""
+def test_pad_named_every_position_default_library(case, seed):
+    """The default library on every position and line of the study: the pad effect
+    explains the residual with the held-out error down by at least half (seed 0
+    measured: pad_length 79 %, pad_frequency 59 %)."""
     from railfem.diagnosis import diagnose
 
-    d = diagnose(g.dataset("pad_length", seed, model=MODEL, form="cross"), model=MODEL,
-                 n_starts=2)
-    assert d.chosen is not None and d.chosen.name == "pad_length", d.statement
+    d = diagnose(g.dataset(case, seed, model=MODEL, form="cross"), model=MODEL, n_starts=2)
+    assert d.chosen is not None and d.chosen.name == case, d.statement
     assert d.chosen_row["final_held_out"]["reduction"] >= 0.5
 
 

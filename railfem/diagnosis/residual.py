@@ -313,7 +313,7 @@ def beyond_discrepancy(data, pred_ref: dict, pred_c: dict, discrepancy, *, part=
     with ``problem`` and ``x``: railfem.diagnosis.refit.Outcome), whose base parameters
     are then held free in the along test (base_tables). None without discrepancy (a
     Discrepancy, or a Scale that carries one)."""
-    discrepancy = getattr(discrepancy, "discrepancy", discrepancy)
+    scale, discrepancy = discrepancy, getattr(discrepancy, "discrepancy", discrepancy)
     if discrepancy is None:
         return None
     before = make_residual(data, pred_ref, (part,), discrepancy=discrepancy)
@@ -324,7 +324,7 @@ def beyond_discrepancy(data, pred_ref: dict, pred_c: dict, discrepancy, *, part=
     if out is None:
         return None
     base = None if ref is None else base_tables(ref.problem, ref.x)
-    out["along"] = along_discrepancy(data, pred_ref, pred_c, discrepancy, base=base)
+    out["along"] = along_discrepancy(data, pred_ref, pred_c, scale, base=base)
     along = out["along"]
     out["pass"] = bool(out["ratio"] > BEYOND_RATIO
                        and (along is None or along["z2"] > along["threshold"]))
