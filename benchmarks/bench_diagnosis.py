@@ -61,6 +61,8 @@ def parse_args(argv=None):
     p.add_argument("--parallel", action="store_true",
                    help="run the old and the new code at the same time (CPU times are each "
                         "run's own; the wall times then share the machine)")
+    p.add_argument("--profile", type=Path, default=None,
+                   help="write a cProfile of the new run (CPU timer) to this file")
     p.add_argument("--out", type=Path, default=HERE / "results" / "results_diagnosis.txt")
     p.add_argument("--one", nargs=2, metavar=("MODEL", "OUT_DIR"), help=argparse.SUPPRESS)
     return p.parse_args(argv)
@@ -74,8 +76,18 @@ def run_one(args) -> None:
     eff = {"default": None, "all": "all"}.get(args.effects, None)
     if args.effects not in ("default", "all"):
         eff = args.effects.split(",")
-    rec = run_diagnose(args.data, out, model=model, effects=eff, workers=args.workers,
-                       cache=False, f_range=(0.0, args.f_high) if args.f_high else None)
+    def go():
+        return run_diagnose(args.data, out, model=model, effects=eff, workers=args.workers,
+                            cache=False, f_range=(0.0, args.f_high) if args.f_high else None)
+
+    if args.profile:  # the CPU timer: the machine may be shared
+        import cProfile
+
+        prof = cProfile.Profile(time.process_time)
+        rec = prof.runcall(go)
+        prof.dump_stats(str(args.profile))
+    else:
+        rec = go()
     g = rec["groups"][0]
     path = Path(out) / "diagnosis.json"
     n = len(json.loads(path.read_text())["candidates"])
@@ -85,15 +97,16 @@ def run_one(args) -> None:
                       "candidates": n, "diagnosis": str(path), "code": railfem.__file__}))
 
 
-def start(args, model: str, code: Path | None, out: Path):
+def start(args, model: str, code: Path | None, out: Path, profile=None):
     """run_one in a child process (code: a railfem checkout first on the path), its output
-    to files in ``out``: (the process, its start time)."""
+    to files in ``out``, a cProfile to ``profile``: (the process, its start time)."""
     env = dict(os.environ)
     if code is not None:
         env["PYTHONPATH"] = str(code) + os.pathsep + env.get("PYTHONPATH", "")
     cmd = [sys.executable, __file__, "--data", str(args.data), "--effects", args.effects,
            "--workers", str(args.workers), "--threads", str(args.threads),
-           "--one", model, str(out)] + (["--f-high", str(args.f_high)] if args.f_high else [])
+           "--one", model, str(out)] + (["--f-high", str(args.f_high)] if args.f_high else []) \
+        + (["--profile", str(profile)] if profile else [])
     out.mkdir(parents=True, exist_ok=True)
     with open(out / "stdout.txt", "w") as so, open(out / "stderr.txt", "w") as se:
         return subprocess.Popen(cmd, env=env, stdout=so, stderr=se), time.perf_counter()
@@ -173,11 +186,13 @@ def main(argv=None):
             + ([("ref", args.ref)] if args.ref else [])
         got = {}
         if args.parallel:  # side by side: each one's CPU time is its own
-            procs = {tag: start(args, model, code, tmp / f"{model}_{tag}") for tag, code in runs}
+            procs = {tag: start(args, model, code, tmp / f"{model}_{tag}",
+                                args.profile if tag == "new" else None) for tag, code in runs}
             got = {tag: finish(*procs[tag], tmp / f"{model}_{tag}") for tag, _ in runs}
         for tag, code in runs:
             if tag not in got:
-                got[tag] = finish(*start(args, model, code, tmp / f"{model}_{tag}"),
+                got[tag] = finish(*start(args, model, code, tmp / f"{model}_{tag}",
+                                         args.profile if tag == "new" else None),
                                   tmp / f"{model}_{tag}")
         for tag, _ in runs:
             r, s = got[tag], got[tag]["seconds"]
