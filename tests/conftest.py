@@ -43,6 +43,24 @@ def pytest_unconfigure(config):
         shutil.rmtree(os.environ.get("RAILFEM_CACHE", ""), ignore_errors=True)
 
 
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the xdist_group marks
+def pytest_collection_modifyitems(config, items):
+    """The tests of a module that use a module-scoped fixture of that module run on one
+    pytest-xdist worker (one xdist_group per module, ``--dist loadgroup``): the fixture (a
+    fitted pair, a kernel, a mesh) is built once per run, not once per worker that draws
+    one of its tests. Tests with an xdist_group of their own keep it."""
+    for item in items:
+        if item.get_closest_marker("xdist_group") is not None:
+            continue
+        info = getattr(item, "_fixtureinfo", None)
+        module = item.nodeid.split("::")[0]
+        for name in getattr(info, "names_closure", ()):
+            defs = info.name2fixturedefs.get(name) or ()
+            if any(d.scope == "module" and d.baseid == module for d in defs):
+                item.add_marker(pytest.mark.xdist_group(f"{module}::module-fixtures"))
+                break
+
+
 @pytest.fixture(autouse=True)
 def _fresh_warn_once():
     """Each test hears the once-per-process warnings (railfem.validators.warn_once) anew."""
