@@ -30,6 +30,7 @@ and held-out bands, vertical and lateral rows apart:
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import logging
 import sys
@@ -219,11 +220,26 @@ def candidate(c) -> dict:
             "params": fitted(c)}
 
 
+#: the rail seat of the base (SupportParameters.seat), --seat: 'rigid' is the default
+SEAT = {"seat": "rigid"}
+
+
+def seat_base(model):
+    """The diagnosis's default base with SEAT's rail seat, or None (the default as it is)."""
+    if SEAT["seat"] == "rigid":
+        return None
+    from railfem.identify.base import default_base
+
+    s = default_base(model)
+    return s.replace(support=dataclasses.replace(s.support, seat=SEAT["seat"]))
+
+
 def run_lateral_group(name, rows, model, starts, effects=LATERAL_EFFECTS, profile=True):
     """The group's vertical and lateral rows diagnosed together (see the docstring)."""
     t0 = time.perf_counter()
     d = diagnose(rows, model=model, spacing=0.6, n_starts=starts, effects=effects,
-                 profile_final=profile, data_options={"directions": "zy"})
+                 profile_final=profile, data_options={"directions": "zy"},
+                 base=seat_base(model))
     by = {c["name"]: c for c in d.candidates}
     new = {n: candidate(by[n]) if n in by else None for n in effects}
     ok = [n for n in effects if new[n] is not None]
@@ -471,6 +487,8 @@ def main(argv=None):
     p.add_argument("--diagnose-lateral", action="store_true", help="diagnose the vertical "
                    "and lateral rows of each group together (no vertical-only run)")
     p.add_argument("--lateral-model", default=LATERAL_MODEL)
+    p.add_argument("--seat", default="rigid", choices=("rigid", "per_spring"),
+                   help="the base's rail seat (SupportParameters.seat)")
     p.add_argument("--cost", action="store_true", help="with --diagnose-lateral: the CPU "
                    "cost of a lateral row's model (periodic and continuous WFE)")
     p.add_argument("--lateral-out",
@@ -481,6 +499,7 @@ def main(argv=None):
                    help="build the table from these JSON files of earlier runs (no vertical "
                         "diagnosis)")
     a = p.parse_args(argv)
+    SEAT["seat"] = a.seat
     logging.basicConfig(level=logging.INFO, format="%(asctime)s %(name)s %(message)s")
     table = read_decay_rate_table(TABLE, columns=SBB_NIEDERWANGEN_COLUMNS)
     rows = table.rows()

@@ -154,7 +154,8 @@ def table(res) -> str:
         for tag, v in variants.items():
             lines.append(f"| {m} | {tag} | " + " | ".join(f"{v[b]:.1f}" for b in bands)
                          + f" | {rms(v, meas, BANDS):.1f} |")
-    lines += ["", "## How far the seat is from held", "", "Held seat against a seat rocking with a rigid two-rail sleeper (antisymmetric "
+    lines += ["", "## How far the seat is from held", "",
+              "Held seat against a seat rocking with a rigid two-rail sleeper (antisymmetric "
               "load; per rail Z = (kb* - omega^2 ms) L^2 / 12, L = 2.6 m, in series with the "
               "pad's S = kp* W^2 / 12, W = 0.146 m): the rocking wave's least decay (closed "
               "form, continuous support).", "",
@@ -162,7 +163,8 @@ def table(res) -> str:
               "| decay, seat rocking (dB/m) |", "|---|---|---|---|---|"]
     lines += [f"| {r['band']:g} | {r['Z_over_S']:.0f} | {r['K_over_S']:.3f} | "
               f"{r['held_db']:.1f} | {r['rocking_db']:.1f} |" for r in res["rocking"]]
-    lines += ["", "## The seat's vertical translation", "", "Vertical seat translation kept per spring against one common seat "
+    lines += ["", "## The seat's vertical translation", "",
+              "Vertical seat translation kept per spring against one common seat "
               "translation (site track, wfe-periodic, vertical head receptance at 0-6 m): "
               "difference at the point and largest over the points within 20 dB of it.", "",
               "| f (Hz) | point (dB) | largest within 20 dB (dB) |", "|---|---|---|"]
