@@ -13,6 +13,10 @@
 
 ``setdefault``: a thread count given on the command line always wins.
 
+Under pytest-xdist the tests of a module that share a module-scoped fixture of that module
+run on one worker (``pytest_collection_modifyitems``: one xdist_group per module), so the
+fixture is built once per run, not once per worker.
+
 ``--cpu-durations=N`` lists the N tests that used the most CPU (this process and the
 subprocesses it waited for, setup and teardown included) and the total: on a shared machine
 the wall times of ``--durations`` measure the load as much as the tests.
