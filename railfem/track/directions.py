@@ -89,9 +89,9 @@ def seat_roll_chain(params: SupportParameters) -> SupportParameters:
     +-y compressed in opposite senses turns the seat, and the rigid sleeper of a symmetric
     track does not turn about the rail axis (the other rail holds it; docs/supports.md).
     Held in this model, though a real seat turns a little: with two rails and a rigid
-    sleeper it rocks against ~ (kb* - omega^2 ms) L^2 / 12 per rail (68 kg m^2 times
-    omega^2 for the default 120 kg and 2.6 m: 60 times the 600 MN/m pad's 1.07e6 N m/rad
-    at 100 Hz); hanging (kb = 0) it turns against that inertia alone (held above ~20 Hz);
+    sleeper it rocks against ~ (kb* - omega^2 ms) L^2 / 12 per rail (120 kg, 2.6 m, site
+    ballast: 22 times the 600 MN/m pad's 1.07e6 N m/rad at 100 Hz, 220 times at 315 Hz);
+    hanging (kb = 0) it turns against its inertia alone (held above ~20 Hz);
     a flexible sleeper's slope at the seat is left out. seat 'per_spring': the published
     chain, each spring with its share of the sleeper mass (the seat rolls with the foot)."""
     if params.seat == "per_spring" or (params.kb == 0 and params.ms == 0 and params.mb == 0):
