@@ -39,10 +39,11 @@ def cross_data(case: str, seed: int, f, every: int = 1):
 
 
 def small_run(case: str, seed: int = 0):
-    """The competing support effects only, every second line and position, no pairs."""
+    """The competing support effects only, every second line, every third position, no
+    pairs."""
     from railfem.diagnosis import diagnose
 
-    return diagnose(cross_data(case, seed, small_f(), every=2), model=MODEL,
+    return diagnose(cross_data(case, seed, small_f(), every=3), model=MODEL,
                     effects=COMPETING, pairs=False, n_starts=2)
 
 
