@@ -13,7 +13,7 @@ import weakref
 
 import numpy as np
 
-from .waves import real_times
+from .sparseblocks import real_times
 
 RIGID_SHARE = 0.5  # share of kinetic energy a beam-type wave must have in its rigid motion
 

@@ -14,9 +14,10 @@ psi_n = T_a phi_n (T_a flips the sign of the axial DOFs), see METHOD.md section 
 
 Two strategies: ``"dense"`` returns all N waves (LAPACK eig of A^-1 B); ``"shift-invert"``
 returns the ``n_waves`` waves of smallest |k| by ARPACK on the sparse factorisation of the
-left-hand matrix divided by c (block upper triangular: one LU of each diagonal block; the
-right-hand matrix B0 stays real for any loss factor) - near-field waves with large |Im k| decay within millimetres and are
-filtered out by any load spread over a patch. An undamped rail (eta = 0) is solved in real
+left-hand matrix divided by c (block upper triangular: one LU of each diagonal block, see
+railfem.rail.sparseblocks; the right-hand matrix B0 stays real for any loss factor) -
+near-field waves with large |Im k| decay within millimetres and are filtered out by any load
+spread over a patch. An undamped rail (eta = 0) is solved in real
 arithmetic. ``frozen_tail`` supplies the dropped near-field waves once per sweep.
 
 Solver calls run with BLAS limited to RAILFEM_BLAS_THREADS threads (default 1, see
@@ -40,6 +41,7 @@ import scipy.linalg as sl
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
+from .sparseblocks import block_solver, block_sum, diagonal_blocks, on_pattern, real_times
 from .waveguide import Waveguide, reduced
 
 log = logging.getLogger(__name__)
@@ -83,17 +85,17 @@ class FamilyOperators:
         sign = np.ones(len(self.order))
         sign[: self.na] = -1.0
         self.flip = sign  # T_a in the (a, p) ordering
-        self.B0 = _block_sum(self.na, (K2, "aa"), (K2, "pp"), (-K1, "pa"))  # real
+        self.B0 = block_sum(self.na, (K2, "aa"), (K2, "pp"), (-K1, "pa"))  # real
         self.B = (c * self.B0).tocsc()
-        k0 = _block_sum(self.na, (K0, "aa"), (K0, "pp"), (K1, "ap"))
+        k0 = block_sum(self.na, (K0, "aa"), (K0, "pp"), (K1, "ap"))
         self.pattern = (abs(k0) + abs(M)).tocsc()  # union sparsity, sorted indices
         self.pattern.sort_indices()
-        self.k0_data = _on_pattern(self.pattern, k0)
-        self.m_data = _on_pattern(self.pattern, M)
+        self.k0_data = on_pattern(self.pattern, k0)
+        self.m_data = on_pattern(self.pattern, M)
         self.extra = None  # optional omega -> sparse stiffness (ordered DOFs), e.g. a foundation
         self._key = self._lossless = None
-        self.blocks = _diagonal_blocks(self.pattern, self.na)
-        self.Z_ap = _block_sum(self.na, (K1, "ap")).tocsr()[: self.na, self.na:]  # no M in it
+        self.blocks = diagonal_blocks(self.pattern, self.na)
+        self.Z_ap = block_sum(self.na, (K1, "ap")).tocsr()[: self.na, self.na:]  # no M in it
         self.B0r = self.B0.tocsr()
 
     def constant_matrix(self, omega: float, c: complex | None = None):
@@ -121,13 +123,13 @@ class FamilyOperators:
             (iaa, Paa), (ipp, Ppp) = self.blocks
             Zaa = sp.csc_matrix((data[iaa], Paa.indices, Paa.indptr), shape=Paa.shape)
             Zpp = sp.csc_matrix((data[ipp], Ppp.indices, Ppp.indptr), shape=Ppp.shape)
-            return _block_solver(Zaa, Zpp, self.Z_ap, self.na)
+            return block_solver(Zaa, Zpp, self.Z_ap, self.na)
         P = self.pattern
         Z = (sp.csc_matrix((data, P.indices, P.indptr), shape=P.shape)
              + self.extra(omega) / (c if complex(c).imag else complex(c).real)).tocsc()
         na = self.na
         if Z[na:, :na].count_nonzero() == 0:
-            return _block_solver(Z[:na, :na].tocsc(), Z[na:, na:].tocsc(),
+            return block_solver(Z[:na, :na].tocsc(), Z[na:, na:].tocsc(),
                                  Z[:na, na:].tocsr(), na)
         lu = spl.splu(Z, permc_spec="MMD_AT_PLUS_A")
 
@@ -178,76 +180,6 @@ class FamilyOperators:
         out = np.empty_like(phi_ordered)
         out[self.order] = phi_ordered
         return out
-
-
-def real_times(A, X: np.ndarray) -> np.ndarray:
-    """A @ X for a real sparse A and a real or complex dense X (one vector or columns): a
-    complex block of columns is multiplied as its real and imaginary parts side by side
-    (2x faster than scipy's complex product; for one vector scipy's own is faster)."""
-    if X.ndim == 1 or not np.iscomplexobj(X) or np.iscomplexobj(A.data):
-        return A @ X
-    X = np.ascontiguousarray(X)
-    return np.ascontiguousarray(A @ X.view(float)).view(complex)
-
-
-def _diagonal_blocks(P: sp.csc_matrix, na: int):
-    """((positions, pattern) of the aa block, same of the pp block) of a sorted CSC
-    pattern: the positions of each block's entries in P.data, in the block's CSC order."""
-    pos = sp.csc_matrix((np.arange(1, P.nnz + 1, dtype=float), P.indices, P.indptr),
-                        shape=P.shape)
-    out = []
-    for sl_ in (slice(None, na), slice(na, None)):
-        blk = pos[sl_][:, sl_].tocsc()
-        blk.sort_indices()
-        out.append((blk.data.astype(np.int64) - 1, blk))
-    return tuple(out)
-
-
-def _block_solver(Zaa, Zpp, Zap, na: int):
-    """r -> Z^-1 r for Z = [[Zaa, Zap], [0, Zpp]] from one LU of each diagonal block."""
-    la = spl.splu(Zaa, permc_spec="MMD_AT_PLUS_A")
-    lp = spl.splu(Zpp, permc_spec="MMD_AT_PLUS_A")
-    dtype = np.result_type(Zaa.dtype, Zpp.dtype)
-
-    def solve(r):
-        r = np.asarray(r, dtype=np.result_type(dtype, r.dtype))
-        xp = lp.solve(r[na:])
-        xa = la.solve(r[:na] - real_times(Zap, xp))
-        return np.concatenate([xa, xp])
-
-    solve.dtype = dtype  # complex with a loss factor or a complex foundation stiffness
-    return solve
-
-
-def _block_sum(na: int, *parts) -> sp.csc_matrix:
-    """Sum of blocks ("aa", "ap", "pa", "pp": axial = first na DOFs) of sparse matrices."""
-    out = None
-    for X, block in parts:
-        X = X.tocoo()
-        rows_a, cols_a = X.row < na, X.col < na
-        keep = {"aa": rows_a & cols_a, "ap": rows_a & ~cols_a, "pa": ~rows_a & cols_a,
-                "pp": ~rows_a & ~cols_a}[block]
-        part = sp.csc_matrix((X.data[keep], (X.row[keep], X.col[keep])), shape=X.shape)
-        out = part if out is None else out + part
-    return out.tocsc()
-
-
-def _on_pattern(P: sp.csc_matrix, X) -> np.ndarray:
-    """X's entries laid out on the sorted CSC pattern P (which must contain X's)."""
-    X = sp.csc_matrix(X)
-    X.sum_duplicates()
-    n = P.shape[0]
-
-    def keys(A):
-        return np.repeat(np.arange(A.shape[1], dtype=np.int64), np.diff(A.indptr)) * n + A.indices
-
-    kp, kx = keys(P), keys(X)
-    pos = np.searchsorted(kp, kx)
-    if np.any(pos >= len(kp)) or np.any(kp[np.minimum(pos, len(kp) - 1)] != kx):
-        raise ValueError("sparsity pattern does not contain the matrix")  # internal invariant
-    out = np.zeros(P.nnz, dtype=X.dtype)
-    out[pos] = X.data
-    return out
 
 
 # ----------------------------------------------------------------- BLAS threads and cache
@@ -585,7 +517,7 @@ def real_k_mode_matrices(guide: Waveguide, family: str, k: float):
     """Undamped real symmetric K(k) = k^2 K2 + k K1s + K0 and M for real k, from scaling
     the axial DOFs by i (METHOD.md section 1)."""
     ops = FamilyOperators(guide, family)
-    K1s = _block_sum(ops.na, (ops.K1, "ap"), (-ops.K1, "pa"))
+    K1s = block_sum(ops.na, (ops.K1, "ap"), (-ops.K1, "pa"))
     K = (k * k * ops.K2 + k * K1s + ops.K0).tocsc()
     return K, ops.M.tocsc(), ops
 

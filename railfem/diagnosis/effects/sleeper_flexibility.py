@@ -16,9 +16,9 @@ exactly with the square root of the stiffness). Both parameters start at the lit
 defaults of railfem.track.sleeper (f1 = 113 Hz of the B90/B91-type sleeper, eta = 0.02) and
 are bounded to a wide range around them (40-800 Hz: measured monobloc concrete sleepers
 have their first mode at ~100-200 Hz); the fit starts f1 from values 10 % apart over
-its bounds (F1_SCAN: a mode's misfit basin is narrow). No Gaussian prior: in this library a prior marks a
-random effect, whose screening leaves the rail loss factor unprofiled (a sleeper's damping
-trades against the rail's)."""
+its bounds (F1_SCAN: a mode's misfit basin is narrow). No Gaussian prior: in this library a
+prior marks a random effect, whose screening leaves the rail loss factor unprofiled (a
+sleeper's damping trades against the rail's)."""
 from __future__ import annotations
 
 from dataclasses import replace
