@@ -11,7 +11,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from railfem.diagnosis import diagnose, effects, loop, prepare
+from railfem.diagnosis import diagnose, effects, gates, loop, prepare
 from railfem.identify.problem import Box
 from railfem.params import Parameter
 from benchmarks.blind import generators as g
@@ -42,7 +42,7 @@ def test_a_pair_whose_second_effect_has_grid_values_is_screened(monkeypatch):
     """End to end: every single kept (gate forced open), so the pair pad_frequency +
     sensor_resonance (the second has a sensor grid) is refitted; it used to crash the
     run with 'keywords must be strings'."""
-    monkeypatch.setattr(loop, "_kept", lambda row, ref_bic: True)
+    monkeypatch.setattr(loop, "passes", lambda row, ref_bic: True)
     d = diagnose(g.dataset("pad_frequency", 3, f=SMALL_F), model="timoshenko-discrete",
                  effects=("pad_frequency", "sensor_resonance"), n_starts=2,
                  profile_final=False)
@@ -150,9 +150,9 @@ def test_no_candidate_is_kept_when_every_final_refit_fails_its_gate(monkeypatch)
 
 
 def test_an_effect_parameter_at_a_bound_after_the_final_refit_is_implausible():
-    ok, why = loop.final_gate(_outcome("sensor_resonance", "yes", value=99.99))
+    ok, why = gates.final_gate(_outcome("sensor_resonance", "yes", value=99.99))
     assert not ok and "at a bound" in why
-    assert loop.final_gate(_outcome("sensor_resonance", "weak", value=3.0)) == (True, "")
+    assert gates.final_gate(_outcome("sensor_resonance", "weak", value=3.0)) == (True, "")
 
 
 # ------------------------------------------------------------------ the CLI and the base

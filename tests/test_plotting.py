@@ -504,7 +504,7 @@ def test_diagnose_job_draws_the_gate_of_its_rules(tmp_path, monkeypatch):
     before/after figure (one panel per data part) is drawn by railfem.plotting."""
     from types import SimpleNamespace
 
-    from railfem.diagnosis import loop
+    from railfem.diagnosis.gates import MIN_GAIN
     from railfem.jobs.diagnose import figures
 
     class NoResidual:
@@ -534,7 +534,7 @@ def test_diagnose_job_draws_the_gate_of_its_rules(tmp_path, monkeypatch):
     figures(tmp_path, d)
     gates = [ln for a in drawn["candidates.png"].axes for ln in a.get_lines()
              if ln.get_gid() == "gate"]
-    assert len(gates) == 1 and np.allclose(gates[0].get_ydata(), 100 * loop.MIN_GAIN)
+    assert len(gates) == 1 and np.allclose(gates[0].get_ydata(), 100 * MIN_GAIN)
     panels = drawn["before_after_transfer.png"].axes
     assert [a.get_title() for a in panels] == ["transfer: residual RMS per band, fit data",
                                                "transfer: residual RMS per band, held data"]

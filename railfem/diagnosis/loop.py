@@ -48,26 +48,20 @@ import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy import stats
 
 from railfem.diagnosis import effects as library
 from railfem.diagnosis import residual as resid
 from railfem.diagnosis.data import LATERAL_ONLY, DiagnosisData, prepare
 from railfem.diagnosis.evaluate import Evaluator, lateral_spec
-from railfem.diagnosis.problem import BASE, DISCREPANCY, Problem, noise_scale, table
+from railfem.diagnosis.gates import final_gate, held_gate, passes, plausibility
+from railfem.diagnosis.problem import BASE, DISCREPANCY, Problem, noise_scale
 from railfem.diagnosis.refit import REFINE_STEPS, Outcome, joint_profile, profile_eta_r, refit
 from railfem.diagnosis.verdict import decide
 from railfem.identify.base import ETA_R_RANGE, default_base, describe_base
-from railfem.identify.problem import table_scale
 from railfem.spec import TrackSpec, model_kind
-from railfem.standards import iec61260
 
 log = logging.getLogger(__name__)
 
-ALPHA = 0.01
-MIN_GAIN = 0.10
-DELTA_BIC = 10.0
-BOUND_MARGIN = 0.01
 WFE_ETA_R_STEPS = 1
 WFE_REFINE_STEPS = 1  # parabolic steps of a geometry / pad-length grid with a WFE model
 WFE_PAD_LENGTHS = (0.08, 0.16, 0.24)
@@ -153,80 +147,6 @@ def pair_grid_values(ea, eb, data: DiagnosisData, model: str = "") -> dict:
     return merge_grids(grid_values(ea, data, model), grid_values(eb, data, model))
 
 
-def held_gate(ref: Outcome, cand: Outcome, pred_ref=None, pred_c=None) -> dict:
-    """Held-out comparison of cand against ref (same scales): MSE, reduction, paired t."""
-    pr = ref.problem.predict(ref.x) if pred_ref is None else pred_ref
-    pc = cand.problem.predict(cand.x) if pred_c is None else pred_c
-    scale = ref.problem.scale
-    d, a_all, b_all = [], [], []
-    for r in ref.problem.records:
-        t = r.held
-        if t is None:
-            continue
-        ta, tb = table(t, pr[r.name]), table(t, pc[r.name])
-        for q in ta:
-            a = np.asarray(ta[q]) / table_scale(scale, t, q, np.shape(ta[q]))
-            b = np.asarray(tb[q]) / table_scale(scale, t, q, np.shape(tb[q]))
-            if q == "tdr":
-                cells = [(a[k, o], b[k, o]) for k in range(a.shape[0])
-                         for o in range(a.shape[1])]
-            else:
-                a3 = a.reshape(a.shape[0], a.shape[1], -1)
-                b3 = b.reshape(b.shape[0], b.shape[1], -1)
-                cells = []
-                band = iec61260.band_index(t.frequency, t.bands)
-                for kb in range(len(t.bands.nominal)):
-                    m = band == kb
-                    for o in range(a3.shape[1]):
-                        for j in range(a3.shape[2]):
-                            cells.append((a3[m, o, j], b3[m, o, j]))
-            for x, y in cells:
-                x, y = np.atleast_1d(x), np.atleast_1d(y)
-                ok = np.isfinite(x) & np.isfinite(y)
-                if ok.any():
-                    d.append(np.mean(x[ok] ** 2) - np.mean(y[ok] ** 2))
-                    a_all.append(x[ok])
-                    b_all.append(y[ok])
-    if not d:
-        return {"blocks": 0, "pass": False, "reduction": None}
-    d = np.array(d)
-    mse_ref = float(np.mean(np.concatenate(a_all) ** 2))
-    mse_c = float(np.mean(np.concatenate(b_all) ** 2))
-    sd = float(np.std(d, ddof=1)) if len(d) > 1 else float("inf")
-    tval = float(np.mean(d) / (sd / math.sqrt(len(d)))) if sd > 0 else (
-        float("inf") if np.mean(d) > 0 else 0.0)
-    p_t = float(stats.t.sf(tval, len(d) - 1)) if len(d) > 1 else 1.0
-    p_w = (float(stats.wilcoxon(d, alternative="greater").pvalue)
-           if len(d) > 1 and np.any(d != 0) else 1.0)
-    p = min(1.0, 2 * min(p_t, p_w))  # either test, Bonferroni: still at most ALPHA
-    red = 1 - mse_c / mse_ref if mse_ref > 0 else 0.0
-    # judged against noise plus discrepancy: the change must exceed the model-form one
-    disc = resid.beyond_discrepancy(ref.problem.model.data, pr, pc, scale, alpha=ALPHA, ref=ref)
-    return {"blocks": int(len(d)), "mse_ref": mse_ref, "mse": mse_c, "reduction": red,
-            "t": tval, "p_t": p_t, "p_wilcoxon": p_w, "p": p, "discrepancy": disc,
-            "pass": bool(p < ALPHA and red >= MIN_GAIN and (disc is None or disc["pass"]))}
-
-
-def plausibility(o: Outcome) -> tuple[bool, str]:
-    box = o.problem.box
-    lo, hi = box.lower, box.upper
-    for i, p in enumerate(box.parameters):
-        if "." not in p.name:
-            continue
-        margin = BOUND_MARGIN * (hi[i] - lo[i])
-        if o.x[i] - lo[i] < margin or hi[i] - o.x[i] < margin:
-            return False, f"{p.name} = {p.decode(o.x[i]):.4g} {p.unit} is at a bound"
-        ident = o.analysis["parameters"][i]["identifiable"]
-        if ident == "no":
-            return False, f"{p.name} is not identifiable: {o.analysis['parameters'][i]['reason']}"
-    for (e, n), prof in o.grid_profiles.items():
-        eff = library.get(e)
-        par = {p.name: p for p in eff.parameters}.get(n)
-        if par is not None and not par.lower < prof["value"] < par.upper:
-            return False, f"{e}.{n} = {prof['value']:.4g} is at a bound"
-    return True, ""
-
-
 def _row(o: Outcome, ref: Outcome, base: Outcome, gate: dict, ok: bool, why: str) -> dict:
     return {"name": o.name, "effects": [e.name for e in o.effects], "k": o.k, "n": o.n,
             "cost": o.cost, "aicc": o.aicc, "bic": o.bic,
@@ -235,11 +155,6 @@ def _row(o: Outcome, ref: Outcome, base: Outcome, gate: dict, ok: bool, why: str
             "theta": {e: {k: (v if isinstance(v, str) else float(v)) for k, v in th.items()}
                       for e, th in o.theta().items()},
             "parameters": o.parameters()}
-
-
-def _kept(row: dict, ref_bic: float) -> bool:
-    return bool(row["plausible"] and row["held_out"].get("pass")
-                and row["bic"] < ref_bic - DELTA_BIC)
 
 
 @dataclass
@@ -446,7 +361,7 @@ def _pairable(ea, eb) -> bool:
 def screen_pairs(s: Search, outcomes: dict, rows: list, max_pairs: int) -> None:
     """Step 5: pairs of the (up to max_pairs) best kept singles, each gated against the
     better single of the two; outcomes and rows are extended in place."""
-    kept = sorted([r for r in rows if _kept(r, s.base.bic)], key=lambda r: r["bic"])
+    kept = sorted([r for r in rows if passes(r, s.base.bic)], key=lambda r: r["bic"])
     if len(kept) < 2:
         return
     top = kept[:max_pairs]
@@ -484,19 +399,12 @@ def rank(s: Search, outcomes: dict, rows: list) -> tuple[Outcome | None, dict | 
     first, then by BIC); the best kept model and its row, or (None, None)."""
     for r in rows:
         ref_bic = outcomes[r["reference"]].bic if r["reference"] != "base" else s.base.bic
-        r["kept"] = _kept(r, ref_bic)
+        r["kept"] = passes(r, ref_bic)
     _sort(rows)
     kept = [r for r in rows if r["kept"]]
     if not kept:
         return None, None
     return outcomes[kept[0]["name"]], kept[0]
-
-
-def final_gate(o: Outcome) -> tuple[bool, str]:
-    """The screening's plausibility gate on a final refit (its rail loss factor profiled,
-    the intervals redone with it free): every effect parameter inside its bounds and not
-    unidentifiable. (True, '') or (False, why)."""
-    return plausibility(o)
 
 
 def choose(s: Search, outcomes: dict, rows: list) -> tuple[Outcome | None, dict | None]:

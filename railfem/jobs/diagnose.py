@@ -30,7 +30,7 @@ import numpy as np
 
 from ..atomic import prepare_output_dir, write_text
 from ..diagnosis import effects as library
-from ..diagnosis import loop
+from ..diagnosis import gates, loop
 from ..diagnosis.residual import NEGLIGIBLE_DB
 from ..spec import model_kind
 from ..diagnosis.data import prepare
@@ -275,8 +275,8 @@ def summary(d) -> dict:
         "chosen": None,
         "error_before": error_table(d.residual_before, bands),
         "error_after": None,
-        "rules": {"alpha": loop.ALPHA, "min_held_out_gain": loop.MIN_GAIN,
-                  "delta_bic": loop.DELTA_BIC, "bound_margin": loop.BOUND_MARGIN,
+        "rules": {"alpha": gates.ALPHA, "min_held_out_gain": gates.MIN_GAIN,
+                  "delta_bic": gates.DELTA_BIC, "bound_margin": gates.BOUND_MARGIN,
                   "negligible_structure_db": NEGLIGIBLE_DB,
                   "text": gate_text()},
         "library": [library.get(n).describe() for n in library.names()],
@@ -297,10 +297,10 @@ def summary(d) -> dict:
 
 
 def gate_text() -> str:
-    """The gates of railfem.diagnosis.loop in words, with the values of its rules."""
+    """The gates of railfem.diagnosis.gates in words, with the values of its rules."""
     text = loop.__doc__.split("4. **Gates**")[1].split("5.")[0].strip()
-    for name, value in (("MIN_GAIN", f"{100 * loop.MIN_GAIN:g} %"),
-                        ("ALPHA", f"{loop.ALPHA:g}"), ("DELTA_BIC", f"{loop.DELTA_BIC:g}")):
+    for name, value in (("MIN_GAIN", f"{100 * gates.MIN_GAIN:g} %"),
+                        ("ALPHA", f"{gates.ALPHA:g}"), ("DELTA_BIC", f"{gates.DELTA_BIC:g}")):
         text = re.sub(rf"\b{name}\b", value, text)
     return text
 
@@ -441,7 +441,7 @@ def figures(out: Path, d) -> list[str]:
                                    [c["delta_bic"] for c in d.candidates],
                                    [c["held_out"].get("reduction") or 0.0
                                     for c in d.candidates],
-                                   [c["kept"] for c in d.candidates], gate=loop.MIN_GAIN)
+                                   [c["kept"] for c in d.candidates], gate=gates.MIN_GAIN)
         ax.set_title("Candidates: BIC change and held-out error reduction")
         files.append(str(save_figure(ax, out / "candidates.png")))
     bands = _bands(d)

@@ -132,7 +132,7 @@ def plot_candidate_scores(names, delta_bic, held_reduction, kept=None, *, gate=N
     """Candidates of a diagnosis: BIC change against the base (bars, left axis, clipped
     symlog) and held-out error reduction in % (markers, right axis); kept candidates
     hatched. ``gate``: the least held-out reduction a candidate must reach (a fraction, e.g.
-    railfem.diagnosis.loop.MIN_GAIN), drawn as a labelled dashed line on the right axis.
+    railfem.diagnosis.gates.MIN_GAIN), drawn as a labelled dashed line on the right axis.
     Returns the (left) Axes."""
     n = len(names)
     d = vector(delta_bic, "delta_bic")
