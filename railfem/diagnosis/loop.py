@@ -9,15 +9,17 @@ effect (and the best pairs), score, validate on held-out data, and decide.
    (multi-start, the rail loss factor profiled) gives the start; the base model (kp,
    eta_p, kb, eta_b, eta_r) is then refitted to the fitted part of all records
    (railfem.diagnosis.refit), the rail loss factor profiled over kernels (beam models; a
-   WFE model keeps the base fit's value: each WFE kernel costs about a minute).
+   WFE model keeps the base fit's value: a kernel per step, against a beam's instant).
 2. **Residual** of the base (railfem.diagnosis.residual): noise or structure.
 3. **Candidates**: every applicable effect of the library is refitted with the base
    parameters; with a beam model the rail loss factor is then profiled on a lattice of
    kernels shared by all candidates (the base's rail loss absorbed part of any damping
-   effect), and a pad length is profiled jointly with it. Each is scored by AICc and BIC
-   on the fitted data and by its error on the held-out data.
-4. **Gates** (all needed to keep a candidate): *plausible* (continuous parameters inside
-   their bounds, not within 1 % of the range of one, and not unidentifiable);
+   effect), and a pad length is profiled jointly with it; with a WFE model a support
+   effect that beats the base gets a short rail-loss profile. Each is scored by AICc and
+   BIC on the fitted data and by its error on the held-out data.
+4. **Gates** (railfem.diagnosis.gates; all needed to keep a candidate): *plausible*
+   (continuous parameters inside their bounds, not within 1 % of the range of one, and not
+   unidentifiable);
    *better on held-out data by more than the noise explains*: the mean squared held-out
    residual (scaled) falls by >= MIN_GAIN and a paired one-sided test over held-out
    blocks (band x sensor x position cells) rejects "no improvement" at ALPHA: the t-test
