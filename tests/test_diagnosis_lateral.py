@@ -3,8 +3,9 @@ lateral records (the lateral hammer and sensor on the side of the head), the eva
 gives the door's lateral decay rate on the lateral track, roll_restraint is not tried on
 vertical data, and blind diagnoses of decay rates made by a model of another form
 (benchmarks/blind/generators.py: form 'cross', the fastening's roll restraint switched on
-behind the diagnosis's back, 5 % noise) name it with the truth inside its interval, and
-claim nothing on clean data (more with -m slow)."""
+behind the diagnosis's back, 5 % noise) find it best by BIC with the truth inside its
+interval (a grip well beyond the pad's own also on held-out data), and claim nothing on
+clean data (more with -m slow)."""
 import numpy as np
 import pytest
 
@@ -12,6 +13,7 @@ from railfem import models
 from railfem.diagnosis import diagnose, effects, prepare
 from railfem.diagnosis.data import LATERAL_ONLY, is_lateral, select_directions
 from railfem.diagnosis.evaluate import Evaluator, lateral_spec
+from railfem.diagnosis.gates import DELTA_BIC
 from railfem.diagnosis.loop import applicable
 from railfem.identify.base import default_base
 from railfem.measurement import DecayRateMeasurement, Metadata
@@ -129,9 +131,10 @@ def blind(case, seed, bands, profile):
                     profile_final=profile)
 
 
-# the default run: seven bands, the rail loss factor of the base kept (no final profile);
-# -m slow: clean data, more seeds, wider bands and the final profile
-FAST = [("roll_restraint", 0, SMALL_BANDS, False)]
+# the default run: clean data and the guide plates' grip (5e6 N m/rad), seven bands, the
+# rail loss factor of the base kept (no final profile); -m slow: the pad-sized grip, more
+# seeds, wider bands and the final profile
+FAST = [(c, 0, SMALL_BANDS, False) for c in ("none", "guide_plate")]
 SLOW = [pytest.param(c, s, b, True, marks=pytest.mark.slow)
         for c in ("none", "roll_restraint") for s in (0, 1, 2)
         for b in (SMALL_BANDS, g.LATERAL_BANDS)]
@@ -143,14 +146,25 @@ def test_blind_roll_restraint(case, seed, bands, profile):
     restraint on, roll_restraint is the best candidate by BIC (better than the base) and
     its roll stiffness's interval holds the truth; on clean data nothing is claimed. The
     base's rail seat holds the foot's roll by the pad (SupportParameters.seat 'rigid'), so
-    a grip of the pad's own size (1e6 N m/rad against the truth pad's ~1e6) is seen but
-    need not pass the identifiability gate, as on the SBB lateral rows."""
+    a grip of the pad's own size (1e6 N m/rad against the truth pad's 7.5e5) is seen but
+    need not pass the identifiability gate, as on the SBB lateral rows. A grip well beyond
+    it ('guide_plate', 5e6 N m/rad) must also pass the held-out and BIC gates and be named
+    in the statement; it is not required to be kept: above a few 1e6 N m/rad the foot's
+    roll is nearly held and the lateral decay rate saturates (0.2-0.9 dB per decade of
+    k_roll at 100-400 Hz, against 0.5-2 dB at 1e6; the loss factor's column, 0.03-0.4 dB
+    per decade, largely along it), so k_roll is fixed from below only and eta_roll drifts to
+    its bound: the plausibility gate refuses it (measured: dBIC -118, held-out error -95 %,
+    k_roll 95 % interval 1e3-6e9 N m/rad)."""
     d = blind(case, seed, bands, profile)
     if case == "none":
         assert d.chosen is None, d.statement
         return
     best = min(d.candidates, key=lambda row: row["bic"])  # the screening's rows
     assert best["name"] == "roll_restraint" and best["delta_bic"] < 0, d.statement
+    assert d.chosen is None or d.chosen.name == "roll_restraint", d.statement
+    if case == "guide_plate":
+        assert best["delta_bic"] < -DELTA_BIC and best["held_out"]["pass"], best["held_out"]
+        assert "roll_restraint" in d.statement, d.statement
     truth = g.LATERAL_CASES[case]
     fitted = d.chosen.parameters() if d.chosen is not None else best["parameters"]
     par = {p["name"].split(".")[-1]: p for p in fitted}

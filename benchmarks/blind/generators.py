@@ -333,8 +333,13 @@ def decay_rate_campaign(seed: int, a: float = 0.03, temps=(0.0, 15.0, 30.0), lev
 
 # ------------------------------------------------------------------ lateral decay rates
 
-#: lateral cases: the fastening's roll restraint (N m/rad, -) switched on in the truth
-LATERAL_CASES = {"none": {}, "roll_restraint": {"k_roll": 1e6, "eta_roll": 0.3}}
+#: lateral cases: the fastening's roll restraint (N m/rad, -) switched on in the truth;
+#: 'roll_restraint' about the truth pad's own roll stiffness on the rigid rail seat
+#: (400 MN/m x 0.15^2 / 12 = 7.5e5 N m/rad), 'guide_plate' several times beyond it, as the
+#: foot edge bearing on stiff guide plates would give (assumed; on the old per-spring seat
+#: the SBB lateral rows asked for 2e6-9e6)
+LATERAL_CASES = {"none": {}, "roll_restraint": {"k_roll": 1e6, "eta_roll": 0.3},
+                 "guide_plate": {"k_roll": 5e6, "eta_roll": 0.3}}
 LATERAL_MODEL = "wfe-periodic"
 LATERAL_BANDS = (100.0, 630.0)  # Hz: the band centres of the small blind test
 
