@@ -229,5 +229,9 @@ def test_fit_and_diagnose_build_the_same_base(options):
     assert lib == loop.base_of(prepare(meas), af.model)
     if not options or options[0] == "--model":
         assert lib == spec_fit
-    assert tuple(af.parameters.split(",")) == DEFAULT_PARAMETERS == BASE_PARAMETERS
+    # the CLI leaves --parameters to the job, which takes the base's on vertical data
+    from railfem.jobs.fit import LATERAL_PARAMETERS
+
+    assert af.parameters is None and DEFAULT_PARAMETERS == BASE_PARAMETERS
+    assert LATERAL_PARAMETERS == tuple(f"{n}_lat" for n in BASE_PARAMETERS[:4])
     assert loop.BASE + ("eta_r",) == BASE_PARAMETERS  # what the diagnosis fits

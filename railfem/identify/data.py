@@ -211,10 +211,17 @@ def _fast_decay_rate(target: Target, Y: np.ndarray) -> np.ndarray | None:
     n_b, n_o, n_p = power.shape
     P = power.reshape(n_b * n_o, n_p)
     D = np.full(n_b * n_o, np.nan)
+    drop = np.full(n_b * n_o, np.nan)
     for rows, idx, dx in plan.groups:
         terms = P[rows[:, None], idx[None, :]] / P[rows, :1] * dx  # ratio[used] * dx
         D[rows] = en15461.DB_PER_NEPER_POWER / terms.sum(axis=1)
-    return D.reshape(n_b, n_o)
+        drop[rows] = -10.0 * np.log10(P[rows, idx[-1]] / P[rows, 0])
+    D, drop = D.reshape(n_b, n_o), drop.reshape(n_b, n_o)
+    with np.errstate(invalid="ignore"):  # the far-field note of the slow path, per sensor
+        failing = ~(np.isfinite(D) & (drop >= en15461.FAR_FIELD_DROP_DB))
+    for o in range(n_o):
+        en15461.note_far_field(np.asarray(target.bands.nominal, float)[failing[:, o]])
+    return D
 
 
 def residuals(target: Target, receptance: np.ndarray) -> dict:

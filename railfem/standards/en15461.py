@@ -47,6 +47,7 @@ __all__ = [
     "STANDARD_POSITIONS_IN_SPANS",
     "DB_PER_NEPER_POWER",
     "FAR_FIELD_DROP_DB",
+    "note_far_field",
     "DecayRateResult",
     "hammer_positions",
     "weighted_intervals",
@@ -80,6 +81,19 @@ def reset_notes() -> None:
     """Start a new run: the next failing far-field check is logged at INFO again (later
     ones at DEBUG)."""
     _NOTED["far_field"] = False
+
+
+def note_far_field(failing_centres, drop_db: float = FAR_FIELD_DROP_DB) -> None:
+    """Log the bands (centres in Hz) whose far-field check fails: once per run at INFO (the
+    measured data come first); a fit evaluates the model's decay rate hundreds of times:
+    those at DEBUG. Nothing when no band fails."""
+    failing = np.asarray(failing_centres, dtype=float).reshape(-1)
+    if failing.size == 0:
+        return
+    level = logging.DEBUG if _NOTED["far_field"] else logging.INFO
+    _NOTED["far_field"] = True
+    log.log(level, "EN 15461 decay rate: far-field %.0f dB check fails in bands %s Hz",
+            drop_db, failing.tolist())
 
 
 def hammer_positions(sleeper_spacing: float) -> np.ndarray:
@@ -380,13 +394,7 @@ def decay_rate_from_band_power(
     has_point = np.isfinite(power[:, 0]) & (power[:, 0] > 0.0)
     status = tuple(_status(decay[b], drop[b], d_min[b], int(n_used[b]), bool(has_point[b]),
                            far_field_drop_db) for b in range(n_bands))
-    if (~measurable).any():
-        # once per run at INFO (the measured data come first); a fit evaluates the model's
-        # decay rate hundreds of times: those at DEBUG
-        level = logging.DEBUG if _NOTED["far_field"] else logging.INFO
-        _NOTED["far_field"] = True
-        log.log(level, "EN 15461 decay rate: far-field %.0f dB check fails in bands %s Hz",
-                far_field_drop_db, centres[~measurable].tolist())
+    note_far_field(centres[~measurable], far_field_drop_db)
     return DecayRateResult(
         frequency=centres,
         decay_rate=decay,
