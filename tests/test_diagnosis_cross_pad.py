@@ -35,19 +35,49 @@ def cross_data(case: str, seed: int, f, every: int = 1):
     return [g.measurement(m.frf.values[:, :, keep], np.asarray(m.positions)[keep], f)]
 
 
-def run(case, seed, f, effects, every=1):
+def run(case, seed, f, effects, every=1, n_starts=2, profile_final=True):
     from railfem.diagnosis import diagnose
 
     return diagnose(cross_data(case, seed, f, every), model=MODEL, effects=effects,
-                    pairs=False, n_starts=2)
+                    pairs=False, n_starts=n_starts, profile_final=profile_final)
 
 
+#: the default run's reduced problems: the pad effect and its competitor (rail_damper)
+#: only, one start, no final rail-loss profile (about a third of the study forms' CPU,
+#: which run with -m slow). A pad's length needs the lines to 4 kHz (to 2.5 kHz: held-out
+#: error down 49.7 %), here every third (18 lines) on every third position; a pad
+#: stiffening with frequency every second line to 2.5 kHz (27) on every second position
+#: (every third: down 48 %; to 4 kHz: 'noise').
+LENGTH_F, LENGTH_EVERY = g.frequencies(low=80.0, high=4000.0)[::3], 3
+FREQUENCY_F, FREQUENCY_EVERY = g.frequencies(high=2500.0)[::2], 2
+
+
+def fast_run(case, effects, f, every):
+    return run(case, 0, f, effects, every=every, n_starts=1, profile_final=False)
+
+
+#: the along-gate check's small problem: 8 lines to 1.5 kHz, 5 transfer positions
+ALONG_F = g.frequencies(high=1500.0)[::6]
+ALONG_EVERY = 6
+
+
+@pytest.mark.slow
 def test_along_with_the_base_free_is_the_regression_on_base_and_change():
     """along_discrepancy with base columns equals an independent weighted regression of
     each variant's difference on [base columns, change] (its coefficient on the change),
     and a change the base parameters make themselves (kp up) leaves nothing along which
     to judge it (None), where the test without the base columns would read it as a change
     to be weighed against the variants."""
+    check_along(lines(6), every=4)
+
+
+def test_along_with_the_base_free_is_the_regression_on_base_and_change_small():
+    """The same on fewer lines and positions (the default run's form)."""
+    check_along(ALONG_F, every=ALONG_EVERY)
+
+
+def check_along(f, every):
+    """See test_along_with_the_base_free_is_the_regression_on_base_and_change."""
     from railfem.diagnosis import residual as R
     from railfem.diagnosis.data import prepare
     from railfem.diagnosis.evaluate import Evaluator
@@ -55,7 +85,7 @@ def test_along_with_the_base_free_is_the_regression_on_base_and_change():
     from railfem.identify import discrepancy as D
     from railfem.identify.problem import Prediction, Scale, table, used_entries
 
-    data = prepare(cross_data("none", 0, lines(6), every=4))
+    data = prepare(cross_data("none", 0, f, every=every))
     spec, ev = g.truth_spec(MODEL), Evaluator()
     disc = D.ensemble(data.records, ev.receptance, spec)
     pb = Problem(data=data, evaluator=ev, spec=spec, scale=Scale({}, disc))
@@ -105,13 +135,23 @@ def test_along_with_the_base_free_is_the_regression_on_base_and_change():
     assert out is not None and out["along"] is None
 
 
+@pytest.mark.slow
 def test_pad_length_is_named_on_cross_model_data():
     """A 0.16 m pad in 4 rows of the other model: pad_length named, held-out error down by
     more than half (the one-row pad of before: about a fifth), the truth inside the
     length's 95 % interval and the chosen model's pad stiffness and loss factor inside
     theirs (the base, without the pad, puts kp 40 % high with its interval excluding
     it)."""
-    d = run("pad_length", 0, lines(1, 80.0, 4000.0), ("pad_length",), every=2)
+    check_pad_length(run("pad_length", 0, lines(1, 80.0, 4000.0), ("pad_length",), every=2))
+
+
+def test_pad_length_is_named_on_reduced_cross_model_data():
+    """The same on the reduced problem, against rail_damper."""
+    check_pad_length(fast_run("pad_length", ("pad_length", "rail_damper"), LENGTH_F,
+                              LENGTH_EVERY))
+
+
+def check_pad_length(d):
     assert d.chosen is not None and d.chosen.name == "pad_length", d.statement
     assert d.chosen_row["final_held_out"]["reduction"] >= 0.5, d.chosen_row["final_held_out"]
     lo, hi = d.chosen.grid_profiles[KEY]["ci95"]
@@ -122,6 +162,7 @@ def test_pad_length_is_named_on_cross_model_data():
         assert lo <= g.TRUTH[n] <= hi, (n, ps[n]["value"], lo, hi)
 
 
+@pytest.mark.slow
 def test_pad_frequency_is_named_on_cross_model_data():
     """A pad stiffening threefold about 400 Hz (fractional Zener, as the effect's law) in
     the other model: pad_frequency named, held-out error down by more than half, ratio and
@@ -129,7 +170,17 @@ def test_pad_frequency_is_named_on_cross_model_data():
     weighed the data as the fit does, the variants seemed to move the estimate by a third
     of its change (on the study's full data z^2 8.9 < 10.1, now 27) and the verdict was
     'consistent'."""
-    d = run("pad_frequency", 0, lines(1, 80.0, 4000.0), ("pad_frequency",), every=2)
+    check_pad_frequency(run("pad_frequency", 0, lines(1, 80.0, 4000.0), ("pad_frequency",),
+                            every=2))
+
+
+def test_pad_frequency_is_named_on_reduced_cross_model_data():
+    """The same on the reduced problem, against rail_damper."""
+    check_pad_frequency(fast_run("pad_frequency", ("pad_frequency", "rail_damper"),
+                                 FREQUENCY_F, FREQUENCY_EVERY))
+
+
+def check_pad_frequency(d):
     assert d.chosen is not None and d.chosen.name == "pad_frequency", d.statement
     assert d.chosen_row["final_held_out"]["reduction"] >= 0.5, d.chosen_row["final_held_out"]
     ps = {p["name"]: p for p in d.chosen.parameters()}
