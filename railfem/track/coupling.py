@@ -145,13 +145,34 @@ def _spring_stiffness(K_sets: np.ndarray, weight: np.ndarray, direction=None) ->
     return np.where(np.isinf(K_sets)[:, None], complex(np.inf), K).ravel()
 
 
+def mirror_parts(n_s: int, codes) -> list:
+    """The even and odd parts of n_s spring sets mirrored about x = 0 (set q <-> n_s-1-q),
+    each set's springs of direction ``codes`` (x = 0 flips with the mirror): [(R, JR, sg,
+    m)] with R the representative springs (set-major flat indices), JR their mirror
+    images, sg the sign relating a part's value at JR to that at R, m 0 for a centre
+    set's spring (its own image) else 1."""
+    n_p = len(codes)
+    sign = np.where(np.asarray(codes) == 0, -1.0, 1.0)
+    n_h = n_s // 2
+    out = []
+    for sigma in (1.0, -1.0):
+        reps = [(q, p) for q in range(n_h) for p in range(n_p)]
+        if n_s % 2:  # the centre set keeps the components its mirror leaves unchanged
+            reps += [(n_h, p) for p in range(n_p) if sigma * sign[p] > 0]
+        if reps:
+            q, p = np.array(reps).T
+            out.append((q * n_p + p, (n_s - 1 - q) * n_p + p, sigma * sign[p],
+                        (q != n_s - 1 - q).astype(float)))
+    return out
+
+
 def mirror_plan(kernel: DiscreteKernel, K_sets: np.ndarray, ss_flat: np.ndarray):
     """Index arrays for solving the even and odd parts separately when the problem is
     symmetric under x -> -x (springs at -x_s, equal K, alpha_ss(-x) = s_p s_q alpha_ss(x)
     with s = -1 for longitudinal springs, whose displacement flips with the mirror, +1 for
     vertical and lateral ones), else None: two systems of half the size, four times less
     work. In part sigma (+1 even, -1 odd) F(mirror set, p) = sigma s_p F(set, p)."""
-    xs, n_p = kernel.spring_x, len(kernel.spring_weight)
+    xs = kernel.spring_x
     n_s = len(xs)
     if n_s < 2 or not np.array_equal(np.round(xs, 12), -np.round(xs[::-1], 12)):
         return None
@@ -166,18 +187,10 @@ def mirror_plan(kernel: DiscreteKernel, K_sets: np.ndarray, ss_flat: np.ndarray)
     mirrored = kernel.ss[:, j] * (sign[:, None] * sign[None, :])[None, None]
     if np.any(np.abs(kernel.ss - mirrored) > 1e-12 * scale):  # round-off only
         return None
-    n_h = n_s // 2
     parts = []
-    for sigma in (1.0, -1.0):
-        sets = [(q, p) for q in range(n_h) for p in range(n_p)]
-        if n_s % 2:  # the centre set keeps the components its mirror leaves unchanged
-            sets += [(n_h, p) for p in range(n_p) if sigma * sign[p] > 0]
-        if not sets:
-            continue
-        q, p = np.array(sets).T
-        R, JR = q * n_p + p, (n_s - 1 - q) * n_p + p
-        parts.append(dict(R=R, JR=JR, sg=sigma * sign[p], m=(q != n_s - 1 - q).astype(float),
-                          rr=ss_flat[np.ix_(R, R)], rj=ss_flat[np.ix_(R, JR)]))
+    for R, JR, sg, m in mirror_parts(n_s, kernel.spring_direction):
+        parts.append(dict(R=R, JR=JR, sg=sg, m=m, rr=ss_flat[np.ix_(R, R)],
+                          rj=ss_flat[np.ix_(R, JR)]))
     return parts
 
 

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .coupling import DiscreteKernel, spring_families
+from .coupling import DiscreteKernel, mirror_parts, spring_families
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -115,27 +115,6 @@ def _reduced(alpha, B, G, on, w, K):
     dd = np.linalg.solve(V, w[Y, None] * bY)  # (m, pair)
     c = np.einsum("opn,nm->mop", gY, V)
     return lam, c * dd[:, None, :], held
-
-
-def mirror_parts(n_s: int, codes) -> list:
-    """The even and odd parts of n_s spring sets mirrored about x = 0 (set q <-> n_s-1-q),
-    each set's springs of direction ``codes`` (x = 0 flips with the mirror): [(R, JR, sg,
-    m)] with R the representative springs (set-major flat indices), JR their mirror
-    images, sg the sign relating a part's value at JR to that at R, m 0 for a centre
-    set's spring (its own image) else 1."""
-    n_p = len(codes)
-    sign = np.where(np.asarray(codes) == 0, -1.0, 1.0)
-    n_h = n_s // 2
-    out = []
-    for sigma in (1.0, -1.0):
-        reps = [(q, p) for q in range(n_h) for p in range(n_p)]
-        if n_s % 2:  # the centre set keeps the components its mirror leaves unchanged
-            reps += [(n_h, p) for p in range(n_p) if sigma * sign[p] > 0]
-        if reps:
-            q, p = np.array(reps).T
-            out.append((q * n_p + p, (n_s - 1 - q) * n_p + p, sigma * sign[p],
-                        (q != n_s - 1 - q).astype(float)))
-    return out
 
 
 def is_mirrored(kernel: DiscreteKernel, pattern, K_all) -> bool:
