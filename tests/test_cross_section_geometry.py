@@ -27,12 +27,7 @@ def grid(step_low: int = 3, low: float = 100.0):
 def cross_data(case: str, seed: int, f, every: int = 1):
     """The cross-model dataset of ``case``; ``every``: keep every n-th transfer position
     (the point mobility always)."""
-    meas = g.dataset(case, seed, f=f, model=MODEL, form="cross")
-    if every == 1:
-        return meas
-    m = meas[0]
-    keep = np.r_[0, np.arange(1, len(m.positions))[::every]]
-    return [g.measurement(m.frf.values[:, :, keep], np.asarray(m.positions)[keep], f)]
+    return g.thinned(g.dataset(case, seed, f=f, model=MODEL, form="cross"), every)
 
 
 def run(case, seed, f, effects, every=1):

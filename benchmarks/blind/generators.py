@@ -250,6 +250,16 @@ def dataset(case: str, seed: int, f=None, outputs=("head",), model=MODEL, form="
     return [measurement(noisy(Y, seed, level=level, floor_db=floor), pos, f, outputs)]
 
 
+
+def thinned(meas: list, every: int = 1) -> list:
+    """A one-record dataset with every ``every``-th transfer position kept (the point
+    mobility always): the same data on fewer positions, for fast tests."""
+    if every == 1:
+        return meas
+    m = meas[0]
+    keep = np.r_[0, np.arange(1, len(m.positions))[::every]]
+    return [measurement(m.frf.values[:, :, keep], np.asarray(m.positions)[keep], m.frequency)]
+
 #: pass-by generator: train speeds (m/s), sample rate, signal noise, wheel detector
 PASSBY_SPEEDS = (30.0, 40.0, 50.0)
 PASSBY_FS = 25600.0
