@@ -215,7 +215,8 @@ def _fast_decay_rate(target: Target, Y: np.ndarray) -> np.ndarray | None:
     for rows, idx, dx in plan.groups:
         terms = P[rows[:, None], idx[None, :]] / P[rows, :1] * dx  # ratio[used] * dx
         D[rows] = en15461.DB_PER_NEPER_POWER / terms.sum(axis=1)
-        drop[rows] = -10.0 * np.log10(P[rows, idx[-1]] / P[rows, 0])
+        with np.errstate(divide="ignore"):  # a zero far power: the drop is infinite
+            drop[rows] = -10.0 * np.log10(P[rows, idx[-1]] / P[rows, 0])
     D, drop = D.reshape(n_b, n_o), drop.reshape(n_b, n_o)
     with np.errstate(invalid="ignore"):  # the far-field note of the slow path, per sensor
         failing = ~(np.isfinite(D) & (drop >= en15461.FAR_FIELD_DROP_DB))
