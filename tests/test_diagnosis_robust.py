@@ -235,3 +235,14 @@ def test_fit_and_diagnose_build_the_same_base(options):
     assert af.parameters is None and DEFAULT_PARAMETERS == BASE_PARAMETERS
     assert LATERAL_PARAMETERS == tuple(f"{n}_lat" for n in BASE_PARAMETERS[:4])
     assert loop.BASE + ("eta_r",) == BASE_PARAMETERS  # what the diagnosis fits
+
+
+def test_nested_effects_are_not_screened_as_a_pair():
+    """two_rail's sleeper is sleeper_flexibility's (the same parameters): the pair is one
+    mechanism twice; two voided-sleeper-like factors too; distinct mechanisms pair."""
+    get = effects.get
+    assert not loop.pairable(get("sleeper_flexibility"), get("two_rail"))
+    assert not loop.pairable(get("two_rail"), get("sleeper_flexibility"))
+    assert not loop.pairable(get("voided_sleeper"), get("random_support"))
+    assert loop.pairable(get("sleeper_flexibility"), get("rail_damper"))
+    assert loop.pairable(get("pad_frequency"), get("sensor_resonance"))

@@ -352,9 +352,13 @@ def screen_singles(s: Search, cands) -> tuple[dict, list]:
     return outcomes, rows
 
 
-def _pairable(ea, eb) -> bool:
+def pairable(ea, eb) -> bool:
+    """Whether two effects can be screened as a pair: two mechanisms, not one nested in the
+    other."""
     if ea.kind == eb.kind == "geometry":
         return False
+    if {id(p) for p in ea.parameters} & {id(p) for p in eb.parameters}:
+        return False  # the same parameter (two_rail's sleeper is sleeper_flexibility's)
     # both set factors on single supports' stiffness (a voided sleeper is one realisation
     # of random supports): nested, not two mechanisms
     return not ("deviations" in ea.needs and "deviations" in eb.needs)
@@ -370,7 +374,7 @@ def screen_pairs(s: Search, outcomes: dict, rows: list, max_pairs: int) -> None:
     for i in range(len(top)):
         for j in range(i + 1, len(top)):
             ea, eb = (library.get(top[i]["name"]), library.get(top[j]["name"]))
-            if not _pairable(ea, eb):
+            if not pairable(ea, eb):
                 continue
             ref = outcomes[top[i]["name"]]
             try:
