@@ -124,3 +124,34 @@ def pytest_terminal_summary(terminalreporter, config):
     for nodeid, seconds in rows[:n] if n > 0 else rows:
         tr.write_line(f"{seconds:8.2f}s  {nodeid}")
 
+
+# --- shared sections of the lateral tests ----------------------------------------------
+
+@pytest.fixture(scope="module")
+def lateral_rail():
+    """The 60E1 guide at 20 mm with an off-centre vertical and a lateral head patch."""
+    from railfem import models
+    from railfem.materials import Material
+    from railfem.rail import meshing, mobility, waveguide
+
+    g = waveguide.assemble(meshing.get_mesh("60E1", 0.02), Material.steel(0.02))
+    top = g.nodes[g.node("head_top")]
+    vert_off = mobility.surface_patch(g, (float(top[0]) + 0.01, float(top[1])), 0.02, "z",
+                                      label="off-centre vertical")
+    lat = mobility.surface_patch(g, models.head_side(g), 0.02, "y", label="lateral",
+                                 along="z")
+    return g, vert_off, lat
+
+
+@pytest.fixture(scope="module")
+def solid_bar():
+    """A solid 100 x 40 mm bar: its section does not distort at low frequency, so the
+    rigid-section beam is its exact low-frequency limit."""
+    from railfem import models
+    from railfem.materials import Material
+    from railfem.rail import meshing, mobility, waveguide
+
+    g = waveguide.assemble(meshing.get_mesh("rect:100x40", 0.01), Material.steel(0.02))
+    lat = mobility.surface_patch(g, models.head_side(g), 0.02, "y", label="lateral",
+                                 along="z")
+    return g, lat

@@ -29,14 +29,8 @@ from railfem.spec import RailSpec
 
 
 @pytest.fixture(scope="module")
-def rail():
-    g = waveguide.assemble(meshing.get_mesh("60E1", 0.02), Material.steel(0.02))
-    top = g.nodes[g.node("head_top")]
-    vert_off = mobility.surface_patch(g, (float(top[0]) + 0.01, float(top[1])), 0.02, "z",
-                                      label="off-centre vertical")
-    lat = mobility.surface_patch(g, models.head_side(g), 0.02, "y", label="lateral",
-                                 along="z")
-    return g, vert_off, lat
+def rail(lateral_rail):
+    return lateral_rail  # tests/conftest.py
 
 
 SITE = supports.PRESETS["site"]

@@ -128,13 +128,8 @@ def test_lateral_transfer_with_grip_is_reciprocal(rail):
 
 
 @pytest.fixture(scope="module")
-def bar():
-    """A solid 100 x 40 mm bar: its section does not distort at low frequency, so the
-    rigid-section beam is its exact low-frequency limit."""
-    g = waveguide.assemble(meshing.get_mesh("rect:100x40", 0.01), Material.steel(0.02))
-    lat = mobility.surface_patch(g, models.head_side(g), 0.02, "y", label="lateral",
-                                 along="z")
-    return g, lat
+def bar(solid_bar):
+    return solid_bar  # tests/conftest.py
 
 
 def test_continuous_grip_against_bending_torsion_beam(bar):

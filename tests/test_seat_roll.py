@@ -17,8 +17,7 @@ import pytest
 
 import railfem as rf
 from railfem import models
-from railfem.materials import Material
-from railfem.rail import meshing, mobility, waveguide
+from railfem.rail import mobility, waveguide
 from railfem.spec import RailSpec, spec_from_dict, spec_to_dict
 from railfem.track import directions, lateral_beam, supports
 from railfem.track import wfe as track
@@ -29,14 +28,8 @@ W = 2 * np.pi * np.array([20.0, 95.0, 160.0, 370.0, 2000.0])
 
 
 @pytest.fixture(scope="module")
-def rail():
-    g = waveguide.assemble(meshing.get_mesh("60E1", 0.02), Material.steel(0.02))
-    top = g.nodes[g.node("head_top")]
-    vert_off = mobility.surface_patch(g, (float(top[0]) + 0.01, float(top[1])), 0.02, "z",
-                                      label="off-centre vertical")
-    lat = mobility.surface_patch(g, models.head_side(g), 0.02, "y", label="lateral",
-                                 along="z")
-    return g, vert_off, lat
+def rail(lateral_rail):
+    return lateral_rail  # tests/conftest.py
 
 
 @pytest.mark.parametrize("n", [4, 8])
@@ -67,13 +60,8 @@ def test_held_seat_roll_stiffness_is_the_pads_width_moment(rail, n):
 
 
 @pytest.fixture(scope="module")
-def bar():
-    """A solid 100 x 40 mm bar: its section does not distort at low frequency, so the
-    rigid-section beam is its exact low-frequency limit."""
-    g = waveguide.assemble(meshing.get_mesh("rect:100x40", 0.01), Material.steel(0.02))
-    lat = mobility.surface_patch(g, models.head_side(g), 0.02, "y", label="lateral",
-                                 along="z")
-    return g, lat
+def bar(solid_bar):
+    return solid_bar  # tests/conftest.py
 
 
 def test_continuous_rigid_seat_against_bending_torsion_beam(bar):
