@@ -100,11 +100,10 @@ def test_two_rail_is_not_the_one_rail_flexible_sleeper():
 # the default suite keeps clean data and the cheapest effect (ballast_mass), with the rail
 # loss factor of the base (no rail-loss profile per candidate and for the chosen one:
 # ~4 s of CPU each instead of ~7-10 s); the same with the profiles, sleeper_flexibility and
-# two_rail (two_rail needs the profile) and more seeds run with -m slow
+# two_rail (two_rail needs the profile), ten seeds each, run with -m slow
 FAST = [(c, 3, False) for c in ("none", "ballast_mass")]
-SLOW = ([pytest.param(c, 3, True, marks=pytest.mark.slow) for c in ("none",) + NEW]
-        + [pytest.param(c, s, True, marks=pytest.mark.slow) for c in ("none",) + NEW
-           for s in (4, 5, 6)])
+SLOW = [pytest.param(c, s, True, marks=pytest.mark.slow) for c in ("none",) + NEW
+        for s in range(3, 13)]  # ten seeds per case
 
 
 @pytest.mark.parametrize("case, seed, profile", FAST + SLOW)
