@@ -253,7 +253,8 @@ def _check_channels(spec: TrackSpec, force: str, outputs) -> None:
 
 
 def receptance(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE,
-               force: str = "head", cache=None, progress=None, rail: int = 1) -> np.ndarray:
+               force: str = "head", cache=None, progress=None, rail: int = 1,
+               tail_frequency: float | None = None) -> np.ndarray:
     """Receptance (nf, n_out, n_rx, n_fx) in m/N of the track ``spec``: unit force in the
     channel ``force`` ('head': vertical on the head top, default; 'head_lateral': lateral
     on the side of the head) at each force_x, response at each response_x (m) for each
@@ -261,7 +262,10 @@ def receptance(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE
 
     cache: kernel cache (railfem.track.kernelcache.resolve: None = the default folder, a folder,
     False = memory only, or a KernelStore). rail: the response on the rail of the force (1)
-    or on the other rail (2) of a two-rail track (TrackSpec.rails = 2)."""
+    or on the other rail (2) of a two-rail track (TrackSpec.rails = 2). tail_frequency
+    (Hz, uniform wfe-discrete only): where the WFE near-field tail is solved, default the
+    lowest frequency (railfem.track.wfe.discrete_kernel): part of a grid, computed with the
+    grid's lowest, is the whole grid's result there."""
     if not isinstance(spec, TrackSpec):
         raise TypeError(f"spec must be a TrackSpec, got {type(spec).__name__}")
     if rail not in (1, 2) or (rail == 2 and spec.rails == 1):
@@ -282,7 +286,8 @@ def receptance(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE
     store = kernelcache.resolve(cache)
     kind = spec.kind
     if kind.is_discrete and spec.uniform:
-        return _centred_on_pairs(spec, f, fx, rx, outputs, store, progress, force)
+        return _centred_on_pairs(spec, f, fx, rx, outputs, store, progress, force,
+                                 tail_frequency)
     if kind.is_discrete and kind.is_wfe:
         return _wfe_discrete(spec, f, fx, rx, outputs, store, progress, force=force)
     if kind.is_discrete:
@@ -351,26 +356,29 @@ def _warn_validity(spec: TrackSpec, f, fx, rx) -> None:
                       "n_supports or use wfe-periodic", span, spec.n_supports, reach)
 
 
-def _centred_on_pairs(spec, f, fx, rx, outputs, store, progress, force="head"):
+def _centred_on_pairs(spec, f, fx, rx, outputs, store, progress, force="head",
+                      tail_frequency=None):
     """Uniform discrete tracks: each pair (x_P, x_r) is computed as (x_P - c, x_r - c), c the
     support nearest to their midpoint; one solve serves every pair."""
     uf, ur, jr, jf = _centring(spec, fx, rx)
     if spec.is_beam:
         a = _beam_discrete(spec, f, uf, ur, outputs, store)
     else:
-        a = _wfe_discrete(spec, f, uf, ur, outputs, store, progress, force=force)
+        a = _wfe_discrete(spec, f, uf, ur, outputs, store, progress, force=force,
+                          tail_frequency=tail_frequency)
     return a[:, :, jr, jf]
 
 
 def discrete_kernel(spec: TrackSpec, frequency, force_x, response_x, *, outputs=WHERE,
-                    force: str = "head", cache=None, progress=None):
+                    force: str = "head", cache=None, progress=None,
+                    tail_frequency: float | None = None):
     """The parameter-free kernel of a uniform discrete track (wfe-discrete or
     timoshenko-discrete) for the fitter (railfem.identify): returns (kernel, jr, jf) such
     that ``couple_discrete(kernel, K)[:, :, jr, jf]`` is ``receptance(spec, ...)``, with K
     the (nf, n_sets) stiffness of spec.layout()'s spring sets. A beam kernel has one
     output (the beam's deflection serves head and foot). With horizontal springs
     (support_directions beyond 'z') K is (nf, n_sets, 3) per direction x, y, z
-    (track.spring_stiffness)."""
+    (track.spring_stiffness). tail_frequency: as in ``receptance``."""
     _check_channels(spec, force, tuple(outputs))
     if spec.rails == 2:
         raise ValueError("discrete_kernel is a single-rail kernel: take each load case of a "
@@ -387,7 +395,7 @@ def discrete_kernel(spec: TrackSpec, frequency, force_x, response_x, *, outputs=
         kernel = _beam_discrete(spec, f, uf, ur, tuple(outputs), store, couple=False)
     else:
         kernel = _wfe_discrete(spec, f, uf, ur, tuple(outputs), store, progress, couple=False,
-                               force=force)
+                               force=force, tail_frequency=tail_frequency)
     return kernel, jr, jf
 
 
@@ -396,21 +404,25 @@ def _key(kind, spec, *parts):
     return kernelcache.content_key(kind, _version(), n.n_waves, n.tail, n.load_length, *parts)
 
 
-def _wfe_discrete(spec, f, fx, rx, outputs, store, progress, couple=True, force="head"):
+def _wfe_discrete(spec, f, fx, rx, outputs, store, progress, couple=True, force="head",
+                  tail_frequency=None):
     rail = _rail_of(spec)
     lay = spec.layout()
     xs = lay.springs().x
     outs = [rail.outputs[o] for o in outputs]
+    if tail_frequency is not None and float(tail_frequency) == float(f.min()):
+        tail_frequency = None  # the default: the same kernel and key
     key = _key("wfe-discrete", spec, rail.key, outputs, xs, lay.row_length, fx, rx, f,
-               *_channel_key(rail, force, outputs))
+               *_channel_key(rail, force, outputs),
+               *(() if tail_frequency is None else (("tail_hz", float(tail_frequency)),)))
     n = spec.numerics
 
     def compute():
         return track.discrete_kernel(rail.guide, rail.springs, xs, f, load=rail.loads[force],
                                      outputs=outs, force_x=fx, response_x=rx,
                                      spring_length=lay.row_length, load_length=n.load_length,
-                                     n_waves=n.n_waves, tail=n.tail,
-                                     progress=progress).to_arrays()
+                                     n_waves=n.n_waves, tail=n.tail, progress=progress,
+                                     tail_frequency=tail_frequency).to_arrays()
 
     kernel = DiscreteKernel.from_arrays(store.cached(key, compute))
     if not couple:

@@ -214,19 +214,21 @@ def _axes(frequency, force_x, response_x):
 
 
 def _projection_sweep(guide: Waveguide, W: np.ndarray, f: np.ndarray, n_waves: int,
-                      tail: bool, families):
+                      tail: bool, families, tail_frequency: float | None = None):
     """Per frequency, a list over ``families`` (those the loads excite, excited_families)
     of (k, X, Xm, denom); the frozen near-field tail (waves.frozen_tail) is projected once
     and appended at each frequency. A family no load excites adds nothing (the supports
     are mirror-symmetric), e.g. the antisymmetric part of an off-centre vertical sensor
-    under a vertical load on the mirror plane."""
+    under a vertical load on the mirror plane. The tail is solved at ``tail_frequency``
+    (Hz; default the lowest of f)."""
+    f_tail = f.min() if tail_frequency is None else float(tail_frequency)
     fams = []
     for fam in families:
         Wr = np.asarray(guide.families[fam].T.T @ W)
         comp = guide.families[fam].component
         Wm = np.where(comp == 0, -1.0, 1.0)[:, None] * Wr
         ops = FamilyOperators(guide, fam)
-        t = frozen_tail(ops, 2 * np.pi * f.min(), n_waves) if tail else None
+        t = frozen_tail(ops, 2 * np.pi * f_tail, n_waves) if tail else None
         tp = None if t is None else (t.k, t.phi.T @ Wr, t.phi.T @ Wm, t.denom)
         fams.append((ops, Wr, Wm, tp))
     for fi in f:
@@ -285,7 +287,8 @@ def discrete_kernel(guide: Waveguide, springs: FootSprings, spring_x, frequency,
                     load: Location, outputs: list[Location], force_x, response_x,
                     spring_length: float = 0.0, load_length: float = 0.02,
                     response_length: float = 0.0, n_waves: int = 40, tail: bool = True,
-                    progress=None, eta_r: float | None = None) -> DiscreteKernel:
+                    progress=None, eta_r: float | None = None,
+                    tail_frequency: float | None = None) -> DiscreteKernel:
     """The parameter-free part of the discrete-support model (railfem.track.coupling): free-rail
     receptances between the spring sets at ``spring_x`` (m; one set of foot springs per
     support or row), the load at ``force_x`` and the outputs at ``response_x``.
@@ -294,7 +297,9 @@ def discrete_kernel(guide: Waveguide, springs: FootSprings, spring_x, frequency,
     load_length / response_length: the same for the load and the outputs.
     eta_r: the rail's loss factor, default the guide's; another value re-uses the guide's
     matrices and its undamped near-field tail (waves.frozen_tail): only the retained waves
-    are solved again."""
+    are solved again. tail_frequency: where the frozen near-field tail is solved (Hz,
+    default the lowest of ``frequency``): a part of a frequency grid computed with its
+    grid's lowest frequency gives that grid's kernel at those frequencies exactly."""
     if eta_r is not None and eta_r != guide.loss_factor:
         guide = guide.with_loss_factor(eta_r)
     f, fx, rx = _axes(frequency, force_x, response_x)
@@ -310,7 +315,8 @@ def discrete_kernel(guide: Waveguide, springs: FootSprings, spring_x, frequency,
     rs = np.empty((nf, len(u_rs), n_o, n_p), dtype=complex)
     rP = np.empty((nf, len(u_rP), n_o), dtype=complex)
     Ls = spring_length
-    for i, sets in enumerate(_projection_sweep(guide, W, f, n_waves, tail, families)):
+    for i, sets in enumerate(_projection_sweep(guide, W, f, n_waves, tail, families,
+                                               tail_frequency)):
         ss[i] = _green(sets, S, S, u_ss, Ls, Ls).transpose(1, 0, 2)
         sP[i] = _green(sets, S, P, u_sP, load_length, Ls)[..., 0].T
         rs[i] = _green(sets, R, S, u_rs, Ls, response_length).transpose(1, 0, 2)
