@@ -70,7 +70,7 @@ from railfem.identify.base import BASE_PARAMETERS, default_base, describe_base
 from railfem.identify.forward import ForwardModel, Geometry, door_receptance, slow_names
 from railfem.identify.problem import Problem, Scale, used_rows, weighted_rows
 from railfem.identify.profiling import (
-    default_workers, fit_with_slow, interval_from_slow_profile,
+    Lanes, default_workers, fit_with_slow, interval_from_slow_profile,
     profile, reprofile, run_tasks, slow_profile_summary, solve_free, start_task,
 )
 from railfem.measurement import DecayRateMeasurement, HammerMeasurement
@@ -240,37 +240,44 @@ def fit(data, model: str = "wfe-discrete", *, parameters=DEFAULT_PARAMETERS, bas
     starts = lo + (0.02 + 0.96 * u) * (hi - lo)
     x_base = np.clip(space.from_spec(space.base), lo, hi)
 
-    slow_profile = None
-    t = time.perf_counter()
-    if not slow:
-        forward.engine(forward.spec(x_base))  # built here once, not in every worker process
-        runs = run_tasks(problem, start_task, [(s, free) for s in starts], workers, "start")
-        x_hat = np.array(min(runs, key=lambda r: r["cost"])["x"])
-    else:
-        x_hat, runs, slow_profile = fit_with_slow(problem, starts, free, slow[0], slow_nodes,
-                                                  slow_refine, slow_tol, workers, x_base)
-    seconds["starts"] = time.perf_counter() - t
+    lanes = open_lanes(problem, workers)
+    try:
+        slow_profile = None
+        t = time.perf_counter()
+        if not slow:
+            forward.engine(forward.spec(x_base))  # built here once, not in every worker process
+            runs = run_tasks(problem, start_task, [(s, free) for s in starts], workers, "start")
+            x_hat = np.array(min(runs, key=lambda r: r["cost"])["x"])
+        else:
+            x_hat, runs, slow_profile = fit_with_slow(problem, starts, free, slow[0], slow_nodes,
+                                                      slow_refine, slow_tol, workers, x_base)
+        seconds["starts"] = time.perf_counter() - t
 
-    t = time.perf_counter()
-    scale = final_scale(problem, x_hat, discrepancy, reweight=reweight, cache=cache)
-    if scale is not None:
-        problem.scale = scale
-        if slow_profile is None:
-            x_hat, _, _ = solve_free(problem, x_hat, free)
-        else:  # the estimate is the profile's minimum under the final scales
-            x_hat, slow_profile = reprofile(problem, slow_profile, free, slow_refine,
-                                            slow_tol)
-    seconds["final_scales"] = time.perf_counter() - t
-    t = time.perf_counter()
-    J = jacobian(problem, x_hat, slow, beam)
-    r = problem.residual(x_hat)
-    seconds["jacobian"] = time.perf_counter() - t
+        t = time.perf_counter()
+        scale = final_scale(problem, x_hat, discrepancy, reweight=reweight, cache=cache,
+                            lanes=lanes)
+        if scale is not None:
+            problem.scale = scale
+            if slow_profile is None:
+                x_hat, _, _ = solve_free(problem, x_hat, free)
+            else:  # the estimate is the profile's minimum under the final scales
+                x_hat, slow_profile = reprofile(problem, slow_profile, free, slow_refine,
+                                                slow_tol)
+        seconds["final_scales"] = time.perf_counter() - t
+        t = time.perf_counter()
+        J = jacobian(problem, x_hat, slow, beam)
+        r = problem.residual(x_hat)
+        seconds["jacobian"] = time.perf_counter() - t
 
-    t = time.perf_counter()
-    analysis, prof = analyse(problem, x_hat, J, r, slow, slow_profile,
-                             [n for n in profiles if n in names and n not in slow],
-                             profile_points, free, workers)
-    seconds["profiles"] = time.perf_counter() - t
+        t = time.perf_counter()
+        analysis, prof = analyse(problem, x_hat, J, r, slow, slow_profile,
+                                 [n for n in profiles if n in names and n not in slow],
+                                 profile_points, free, workers)
+        seconds["profiles"] = time.perf_counter() - t
+    finally:
+        if lanes is not None:
+            lanes.close()
+            forward.builder = None
     seconds["total"] = time.perf_counter() - t_start
 
     receptance = forward.receptance(x_hat)
@@ -334,15 +341,17 @@ def check_band_weights(target: fdata.Target, discrepancy) -> None:
                          "(--discrepancy none) to weigh them by hand")
 
 
-def final_scale(problem: Problem, x, discrepancy, *, reweight: bool = True, cache=None):
+def final_scale(problem: Problem, x, discrepancy, *, reweight: bool = True, cache=None,
+                lanes=None):
     """The residual scales of the final fit at the first-pass estimate x: with a
     ``discrepancy`` a Scale of the white-noise level per quantity (``white_noise``) and the
     discrepancy ('ensemble': ``ensemble_at``); without, each quantity's residual RMS
-    (``reweight`` and more than one quantity) or None (the first pass's 1 dB stand)."""
+    (``reweight`` and more than one quantity) or None (the first pass's 1 dB stand).
+    lanes: railfem.identify.profiling.Lanes the variants are computed in, or None."""
     target = problem.target
     if discrepancy is not None:
         if isinstance(discrepancy, str):
-            discrepancy = ensemble_at(problem, x, cache)
+            discrepancy = ensemble_at(problem, x, cache, lanes)
         return Scale(white_noise(target, problem.forward.receptance(x)), discrepancy)
     if not reweight or len(target.use) <= 1:
         return None
@@ -368,21 +377,49 @@ def white_noise(target: fdata.Target, receptance) -> dict:
     return out
 
 
-def ensemble_at(problem: Problem, x, cache=None) -> model_form.Discrepancy:
+def ensemble_at(problem: Problem, x, cache=None, lanes=None) -> model_form.Discrepancy:
     """The model-form discrepancy of the fit's base at x (railfem.identify.discrepancy
     .ensemble over its variants): the base from the fit's own forward model, each variant
-    through the door at the data's geometry (kernel ``cache`` as the fit's)."""
+    through the door at the data's geometry (kernel ``cache`` as the fit's), computed in
+    ``lanes`` (railfem.identify.profiling.Lanes: every variant on every core) if given."""
     fwd = problem.forward
     spec = fwd.spec(x)
     g = fwd.geometry
+    done = {}
+    if lanes is not None:
+        specs = [s for _, s in model_form.variants(spec)]
+        done = dict(zip(map(variant_key, specs),
+                        lanes.receptances(specs, cache, rail=spec.rail)))
 
     def receptance(s, record):
         if s is spec:
             return fwd.receptance(x)
+        got = done.get(variant_key(s))
+        if isinstance(got, Exception):
+            raise got
+        if got is not None:
+            return got
         return door_receptance(s, g.frequency, g.sensor_x, g.force_x, g.outputs,
                                force=g.force, cache=cache)
 
     return model_form.ensemble(problem.records, receptance, spec)
+
+
+def variant_key(spec: TrackSpec) -> str:
+    """What tells two specs apart (their dict form)."""
+    return str(spec_to_dict(spec))
+
+
+def open_lanes(problem: Problem, workers: int):
+    """railfem.identify.profiling.Lanes of ``workers`` processes for a fit of a uniform
+    discrete WFE model (spectral engine), made the forward model's engine builder; None
+    otherwise (one worker, beam models, other engines: their kernels as before)."""
+    fwd = problem.forward
+    if workers <= 1 or fwd.kind != "spectral" or fwd.space.base.is_beam:
+        return None
+    lanes = Lanes(problem, workers)
+    fwd.builder = lanes.builder
+    return lanes
 
 
 def analyse(problem: Problem, x, J, r, slow, slow_profile, todo, profile_points, free,

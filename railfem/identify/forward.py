@@ -140,13 +140,7 @@ class SpectralEngine:
         key = spectral_key(spec, g)
 
         def compute():  # given: (kernel, jr, jf) of models.discrete_kernel, if at hand
-            kernel, jr, jf = given or models.discrete_kernel(
-                spec, g.frequency, g.force_x, [g.sensor_x], outputs=g.outputs, cache=cache,
-                progress=progress)
-            soft = replace(spec.support, kp=spec.support.kp / 10, kb=spec.support.kb / 10)
-            sc = checked_coupling(kernel, spec, jr[0], jf[0], (spec.support, soft),
-                                  g.frequency)
-            return {"lam": sc.lam, "residue": sc.residue, "direct": sc.direct}
+            return spectral_arrays(spec, g, cache=cache, progress=progress, kernel=given)
 
         arrays = store.cached(key, compute)
         self.coupling = SpectralCoupling(frequency=g.frequency, lam=arrays["lam"],
@@ -158,6 +152,28 @@ class SpectralEngine:
         if self.beam and len(self.geometry.outputs) > 1:
             a = np.repeat(a, len(self.geometry.outputs), axis=1)
         return a
+
+
+def spectral_arrays(spec: TrackSpec, g: Geometry, *, cache=False, progress=None, kernel=None,
+                    tail_frequency: float | None = None) -> dict:
+    """SpectralEngine's arrays (lam, residue, direct; railfem.identify.spectral) of ``spec``
+    at ``g``: its kernel (``kernel``: (kernel, jr, jf) of models.discrete_kernel if at
+    hand) in eigen form, checked against the coupling solve at spec's support and a ten
+    times softer one (checked_coupling). Each frequency's entries depend on that frequency
+    alone, and on ``tail_frequency`` (models.receptance): the arrays of a grid are those
+    of its parts computed with the grid's lowest frequency, concatenated."""
+    kernel, jr, jf = kernel or models.discrete_kernel(
+        spec, g.frequency, g.force_x, [g.sensor_x], outputs=g.outputs, cache=cache,
+        progress=progress, tail_frequency=tail_frequency)
+    soft = replace(spec.support, kp=spec.support.kp / 10, kb=spec.support.kb / 10)
+    sc = checked_coupling(kernel, spec, jr[0], jf[0], (spec.support, soft), g.frequency)
+    return {"lam": sc.lam, "residue": sc.residue, "direct": sc.direct}
+
+
+def part(g: Geometry, rows) -> Geometry:
+    """``g`` at the frequencies g.frequency[rows]."""
+    return Geometry(frequency=g.frequency[rows], outputs=g.outputs, sensor_x=g.sensor_x,
+                    force_x=g.force_x)
 
 
 class DirectionalEngine:
@@ -260,11 +276,12 @@ def checked_coupling(kernel, spec: TrackSpec, jr, jf, supports, frequency) -> Sp
 
 
 def door_receptance(spec: TrackSpec, frequency, sensor_x: float, force_x, outputs, *,
-                    force: str = "head", cache=False) -> np.ndarray:
+                    force: str = "head", cache=False,
+                    tail_frequency: float | None = None) -> np.ndarray:
     """(nf, n_out, n_force) receptance of any model through the door
     (railfem.models.receptance) at one sensor position."""
     a = models.receptance(spec, frequency, force_x, [sensor_x], outputs=outputs,
-                          force=force, cache=cache)
+                          force=force, cache=cache, tail_frequency=tail_frequency)
     return a[:, :, 0, :]
 
 
@@ -280,7 +297,11 @@ class ForwardModel:
     eigen for uniform discrete WFE models with springs in several directions whose fitted
     support parameters change one direction only, e.g. the lateral chain on lateral data:
     varied_directions; the door otherwise), 'spectral', 'eigen' or 'direct'. cache: kernel
-    cache as in railfem.models (False: memory only)."""
+    cache as in railfem.models (False: memory only).
+
+    ``builder``: None, or a callable(list of specs) that puts the SpectralEngine arrays of
+    those specs into the kernel store (under spectral_key), e.g. built in parallel
+    processes (railfem.identify.profiling.Lanes); ``engine`` then reads them from it."""
 
     def __init__(self, space: ParameterSpace, geometry: Geometry, *, engine: str = "auto",
                  cache=False, progress=None):
@@ -310,6 +331,7 @@ class ForwardModel:
         self.kind = engine
         self.slow = slow_names(space)
         self._engines: dict = {}
+        self.builder = None
 
     def engine(self, spec: TrackSpec):
         """The engine for spec's kernel parameters (built once per distinct value)."""
@@ -321,6 +343,8 @@ class ForwardModel:
         if key not in self._engines:
             log.info("fit: building the %s engine for eta_r = %.4g, pad length = %.3g m",
                      spec.model, *key)
+            if self.kind == "spectral" and self.builder is not None:
+                self.builder([spec])
             if self.kind == "eigen":
                 self._engines[key] = DirectionalEngine(spec, self.geometry, self.direction,
                                                        self.space.names, self.cache,
@@ -329,6 +353,9 @@ class ForwardModel:
                 self._engines[key] = SpectralEngine(spec, self.geometry, self.cache,
                                                     self.progress)
         return self._engines[key]
+
+    def __getstate__(self):  # a builder (parallel processes) stays in its process
+        return {**self.__dict__, "builder": None}
 
     def add_engine(self, engine) -> None:
         """Adopt an engine built elsewhere (e.g. in a worker process)."""

@@ -12,6 +12,10 @@
   ``profile_interval`` reads the interval where the profile crosses CHI2_95.
 * ``run_tasks``: a function of the problem over argument lists in ``workers`` processes
   (BLAS pinned to one thread each with threadpoolctl).
+* ``Lanes``: worker processes kept for a whole fit, each computing its own part of the
+  frequency grid of every WFE kernel (``Lanes.builder``: the fit's engines;
+  ``Lanes.receptances``: the door at other specs, e.g. the model-form variants), so a
+  single kernel uses every core and each lane keeps the waves of its part in memory.
 """
 from __future__ import annotations
 
@@ -22,7 +26,9 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
+from railfem.identify.forward import door_receptance, part, spectral_arrays, spectral_key
 from railfem.identify.problem import Problem, SlowProfile
+from railfem.track import kernelcache
 
 log = logging.getLogger(__name__)
 
@@ -49,12 +55,112 @@ def _init_worker(problem):
     from threadpoolctl import threadpool_limits
 
     _WORKER["problem"] = problem
+    problem.forward.builder = None  # the parent's lanes are not this process's
     _WORKER["limits"] = threadpool_limits(1)  # kept alive for the worker's lifetime
 
 
 def _run(task):
     fn, args = task
     return fn(_WORKER["problem"], *args)
+
+
+#: the wave cache of a lane (MB, railfem.rail.waves): the waves of its part of every
+#: kernel of a fit (about 60 MB each on the default 60E1 mesh), unless the variable is set
+LANE_WAVE_CACHE_MB = 1024
+
+
+def _init_lane(problem):
+    from railfem.rail import waves
+
+    os.environ.setdefault(waves.CACHE_VARIABLE, str(LANE_WAVE_CACHE_MB))
+    _init_worker(problem)
+
+
+class Lanes:
+    """``n`` worker processes kept for a fit (a context manager), one single-process pool
+    each: every WFE kernel's frequency grid is split in n contiguous parts, part j always
+    computed in lane j (its near-field tail solved at the grid's lowest frequency, so the
+    parts are the whole grid's kernel: railfem.track.wfe.discrete_kernel), so a kernel
+    uses n cores and each lane keeps the waves of its part (railfem.rail.waves' cache)
+    for the next kernel of the same rail at the same loss factor."""
+
+    def __init__(self, problem: Problem, n: int):
+        self.problem, self.n = problem, int(n)
+        self.pools = [ProcessPoolExecutor(max_workers=1, initializer=_init_lane,
+                                          initargs=(problem,)) for _ in range(self.n)]
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def close(self) -> None:
+        for pool in self.pools:
+            pool.shutdown(cancel_futures=True)
+
+    def parts(self) -> list:
+        """The frequency rows of each lane."""
+        nf = len(self.problem.forward.geometry.frequency)
+        return [rows for rows in np.array_split(np.arange(nf), self.n) if rows.size]
+
+    def submit(self, fn, *args, lane: int | None = None) -> list:
+        """fn(problem, rows, *args) in every lane on its rows, or in ``lane`` on every
+        row: the futures."""
+        if lane is not None:
+            rows = np.concatenate(self.parts())
+            return [self.pools[lane % self.n].submit(_run, (fn, (rows,) + args))]
+        return [self.pools[j].submit(_run, (fn, (rows,) + args))
+                for j, rows in enumerate(self.parts())]
+
+    def builder(self, specs) -> None:
+        """The SpectralEngine arrays of ``specs`` computed in the lanes, put into the
+        forward model's kernel store (under spectral_key) unless already there
+        (railfem.identify.forward.ForwardModel.builder)."""
+        fwd = self.problem.forward
+        store = kernelcache.resolve(fwd.cache)
+        todo = {}
+        for s in specs:
+            key = spectral_key(s, fwd.geometry)
+            if key not in todo and store.get(key) is None:
+                todo[key] = self.submit(_spectral_part, s)
+        t0 = time.perf_counter()
+        for n, (key, futs) in enumerate(todo.items(), 1):
+            got = [f.result() for f in futs]
+            store.put(key, {k: np.concatenate([g[k] for g in got]) for k in got[0]})
+            if len(todo) > 1:
+                log.info("fit: kernel %d/%d done (%.1f s)", n, len(todo),
+                         time.perf_counter() - t0)
+
+    def receptances(self, specs, cache, rail=None) -> list:
+        """door_receptance of each spec at the forward model's geometry, computed in the
+        lanes (kernel ``cache`` as the door's): per spec the array, or the exception it
+        raised. A spec on ``rail`` (a RailSpec: the lanes hold the waves of their parts)
+        is split over the lanes, each other one computed whole in one lane in turn (its
+        near-field tail solved once)."""
+        whole = [k for k, s in enumerate(specs) if rail is None or s.rail != rail]
+        futs = [self.submit(_door_part, s, cache,
+                            lane=whole.index(k) if k in whole else None)
+                for k, s in enumerate(specs)]
+        out = []
+        for fs in futs:
+            try:
+                out.append(np.concatenate([f.result() for f in fs]))
+            except Exception as exc:  # noqa: BLE001 -- handed to the caller, as the door's
+                out.append(exc)
+        return out
+
+
+def _spectral_part(problem, rows, spec):
+    g = problem.forward.geometry
+    return spectral_arrays(spec, part(g, rows), tail_frequency=float(g.frequency.min()))
+
+
+def _door_part(problem, rows, spec, cache):
+    g = problem.forward.geometry
+    return door_receptance(spec, g.frequency[rows], g.sensor_x, g.force_x, g.outputs,
+                           force=g.force, cache=cache,
+                           tail_frequency=float(g.frequency.min()))
 
 
 def start_task(problem, x0, free):
@@ -201,6 +307,11 @@ def prebuild_nodes(problem, nodes, i, x_base, workers):
         x = x_base.copy()
         x[i] = s
         xs.append(x)
+    if fwd.builder is not None:  # each kernel on every lane
+        fwd.builder([fwd.spec(x) for x in xs])
+        for x in xs:
+            fwd.engine(fwd.spec(x))
+        return
     if workers <= 1:
         for x in xs:
             fwd.engine(fwd.spec(x))
