@@ -93,7 +93,7 @@ class Outcome:
         if self.eta_r_profile is not None:
             out.append({"name": "eta_r", "group": "base", **self.eta_r_profile})
         self._joint(out)
-        return out
+        return out + [q for e in self.effects if e.derived is not None for q in e.derived(out)]
 
     def _joint(self, out: list[dict]) -> None:
         eff = [p for p in out if p["group"] == "effect" and p.get("ci95") is not None]

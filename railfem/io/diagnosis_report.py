@@ -39,7 +39,7 @@ def _fmt(v, unit=""):
 def interval(p: dict, key: str = "ci95") -> str:
     """'[lo, hi]' of a parameter; an end of a grid parameter's interval that is the
     grid's edge (its profile still below the threshold there) is open: '≥ 0.24 (grid
-    edge)'."""
+    edge)'; an interval open at the top (inf) is one-sided: 'at least 2e+06'."""
     ci = p.get(key) or [None, None]
     reason = p.get("reason") or ""
     lo = _fmt(ci[0])
@@ -48,6 +48,8 @@ def interval(p: dict, key: str = "ci95") -> str:
         lo = f"≤ {lo} (grid edge)"
     if "open on the" in reason and "high side" in reason:
         hi = f"≥ {hi} (grid edge)"
+    if ci[1] == float("inf"):  # a one-sided result (roll_restraint's k_roll)
+        return f"at least {lo}"
     return f"[{lo}, {hi}]"
 
 

@@ -36,6 +36,9 @@ part of a random effect's realisation the fit leaves at the mean (the supports o
 its window) and its scatter: it does not enter the fit, but the uncertainty of the fitted
 parameters includes what that scatter can do to them (railfem.identify.uncertainty,
 ``nuisance``).
+``derived(parameters) -> [entries]`` (optional) adds the physical quantities a fitted
+parameter stands for to the reported parameters (group 'derived'; e.g. the roll stiffness
+of roll_restraint's grip share, with an interval open at the top).
 ``screened=False`` leaves an effect out of the default search (it must be named): for
 costly effects with tens of parameters.
 """
@@ -102,6 +105,7 @@ class Effect:
     screened: bool = True  # False: left out of the default screen; named on request
     deviation_of: Callable | None = None  # parameter name -> ((support indices), 'kp' | 'kb')
     unfitted: Callable | None = None  # spec -> {(support index, 'kp' | 'kb'): SD of ln}
+    derived: Callable | None = None  # [parameter entries] -> [entries of derived quantities]
     grid: dict = field(default_factory=dict)
     needs: tuple[str, ...] = ()
     quantities: tuple[str, ...] = ("point", "phase", "transfer", "tdr")
