@@ -16,6 +16,12 @@ from railfem.standards import iec61260
 
 MODEL = "wfe-discrete"
 KEY = ("pad_length", "pad_length")
+#: the data and the diagnoses use the run's kernel cache (tests/conftest.py: a fresh folder
+#: per run; kernels are content-keyed, a cached one is the same kernel): the cross-model
+#: files run on one xdist worker, so the data's kernel on the lines of FREQUENCY_F and the
+#: base fit's kernels on every second position are computed once for this file and
+#: tests/test_diagnosis_cross_support.py (its FAST_F is FREQUENCY_F)
+pytestmark = pytest.mark.xdist_group("cross-model diagnosis")
 
 
 def lines(step: int = 2, low: float = 80.0, high: float = 3000.0):
@@ -27,14 +33,15 @@ def lines(step: int = 2, low: float = 80.0, high: float = 3000.0):
 def cross_data(case: str, seed: int, f, every: int = 1):
     """The cross-model dataset of ``case``; ``every``: keep every n-th transfer position
     (the point mobility always)."""
-    return g.thinned(g.dataset(case, seed, f=f, model=MODEL, form="cross"), every)
+    return g.thinned(g.dataset(case, seed, f=f, model=MODEL, form="cross", cache=True),
+                     every)
 
 
 def run(case, seed, f, effects, every=1, n_starts=2, profile_final=True):
     from railfem.diagnosis import diagnose
 
     return diagnose(cross_data(case, seed, f, every), model=MODEL, effects=effects,
-                    pairs=False, n_starts=n_starts, profile_final=profile_final)
+                    pairs=False, n_starts=n_starts, profile_final=profile_final, cache=True)
 
 
 #: the default run's reduced problems: the pad effect and its competitor (rail_damper)

@@ -20,6 +20,13 @@ from benchmarks.blind import generators as g
 MODEL = "wfe-discrete"
 COMPETING = ("rail_damper", "sleeper_flexibility", "two_rail", "foot_damping")
 SEEDS = range(10)
+#: the data and the diagnoses use the run's kernel cache (tests/conftest.py: a fresh folder
+#: per run; kernels are content-keyed, a cached one is the same kernel), and the cross-model
+#: files run on one xdist worker: the data of every case here have one kernel (FAST_F, every
+#: position), the sleeper shares the base fit's kernels with pad_frequency of
+#: tests/test_diagnosis_cross_pad.py (every second position), both rails with foot damping
+#: (every third)
+pytestmark = pytest.mark.xdist_group("cross-model diagnosis")
 
 
 def small_f():
@@ -30,7 +37,8 @@ def small_f():
 def cross_data(case: str, seed: int, f, every: int = 1):
     """The cross-model dataset of ``case``; ``every``: keep every n-th transfer position
     (the point mobility always)."""
-    return g.thinned(g.dataset(case, seed, f=f, model=MODEL, form="cross"), every)
+    return g.thinned(g.dataset(case, seed, f=f, model=MODEL, form="cross", cache=True),
+                     every)
 
 
 def small_run(case: str, seed: int = 0):
@@ -39,7 +47,7 @@ def small_run(case: str, seed: int = 0):
     from railfem.diagnosis import diagnose
 
     return diagnose(cross_data(case, seed, small_f(), every=3), model=MODEL,
-                    effects=COMPETING, pairs=False, n_starts=2)
+                    effects=COMPETING, pairs=False, n_starts=2, cache=True)
 
 
 #: the default run's reduced problem: every second line to 2.5 kHz (27 lines), the effect
@@ -55,7 +63,7 @@ def fast_run(case: str, every: int, profile_final: bool = False):
 
     return diagnose(cross_data(case, 0, FAST_F, every=every), model=MODEL,
                     effects=(case, "rail_damper"), pairs=False, n_starts=1,
-                    profile_final=profile_final)
+                    profile_final=profile_final, cache=True)
 
 
 def check_sleeper(d, name: str, tol: float = 0.05):

@@ -80,10 +80,13 @@ def truth_spec(model=MODEL, **changes):
     return rf.preset("site", model=model, pad_length=0.0).replace(**{**TRUTH, **changes})
 
 
-def clean(spec, f, *, outputs=("head",), sensor_shift=0.0, hammer_offset=0.0, form="own"):
+def clean(spec, f, *, outputs=("head",), sensor_shift=0.0, hammer_offset=0.0, form="own",
+          cache=False):
     """Mobilities (nf, n_out, n_pos) of an EN 15461 test on spec (in ``form``: FORMS): the
     sensor at mid-span (+ sensor_shift), positions of the standard, the point 20 mm away,
-    every other hammer position moved by hammer_offset."""
+    every other hammer position moved by hammer_offset. ``cache``: the door's kernel cache
+    (railfem.models; False: memory only); the kernel is content-keyed, so a cached one
+    gives the same data (tests share the data's kernels through the test cache)."""
     if form not in FORMS:
         raise ValueError(f"form {form!r}: give one of {FORMS}")
     spec = cross_spec(spec) if form == "cross" else spec
@@ -93,7 +96,7 @@ def clean(spec, f, *, outputs=("head",), sensor_shift=0.0, hammer_offset=0.0, fo
     hx = xs + pos + np.where(np.arange(len(pos)) > 0, hammer_offset, 0.0)
     if spec.deviations:
         spec = spec.replace(n_supports=2 * math.ceil((hx.max() + 20) / spec.spacing) + 1)
-    a = models.receptance(spec, f, hx, [xs], outputs=outputs, cache=False)[:, :, 0, :]
+    a = models.receptance(spec, f, hx, [xs], outputs=outputs, cache=cache)[:, :, 0, :]
     return 2j * np.pi * f[:, None, None] * a, pos
 
 
@@ -230,20 +233,21 @@ def effect_spec(case: str, seed: int = 0, model=MODEL):
 
 
 def dataset(case: str, seed: int, f=None, outputs=("head",), model=MODEL, form="own",
-            level=NOISE):
+            level=NOISE, cache=False):
     """A list of measurements with ``case`` switched on (CASES), noise (RMS ``level``)
-    seeded by ``seed``, made by the model in ``form`` (FORMS: 'own' or 'cross')."""
+    seeded by ``seed``, made by the model in ``form`` (FORMS: 'own' or 'cross');
+    ``cache``: the kernel cache of the model (clean)."""
     f = frequencies() if f is None else f
     p = CASES[case]
     if case in ("temperature", "preload"):
-        return _campaign(case, p, truth_spec(model), f, seed, outputs, form)
+        return _campaign(case, p, truth_spec(model), f, seed, outputs, form, cache)
     spec = effect_spec(case, seed, model) or truth_spec(model)
     kw = {}
     if case == "sensor_position":
         kw["sensor_shift"] = p["sensor_shift"]
     elif case == "hammer_position":
         kw["hammer_offset"] = p["hammer_offset"]
-    Y, pos = clean(spec, f, outputs=outputs, form=form, **kw)
+    Y, pos = clean(spec, f, outputs=outputs, form=form, cache=cache, **kw)
     if case == "sensor_resonance":
         Y = Y * mount(f, p["fs"], p["eta_s"])[:, None, None]
     floor = p["floor_db"] if case == "noise_floor" else None
@@ -298,13 +302,13 @@ def passby_recordings(case: str, seed: int, model=MODEL, speeds=PASSBY_SPEEDS):
     return out
 
 
-def _campaign(case, p, spec, f, seed, outputs, form="own"):
+def _campaign(case, p, spec, f, seed, outputs, form="own", cache=False):
     out = []
     if case == "temperature":
         temps = (0.0, 15.0, 30.0)
         for i, T in enumerate(temps):
             s = spec.replace(kp=spec.support.kp * math.exp(-p["a"] * (T - np.mean(temps))))
-            Y, pos = clean(s, f, outputs=outputs, form=form)
+            Y, pos = clean(s, f, outputs=outputs, form=form, cache=cache)
             out.append(measurement(noisy(Y, seed * 7 + i), pos, f, outputs,
                                    Metadata(date=f"2020-0{i + 1}-01", temperature_c=T)))
     else:
@@ -314,7 +318,7 @@ def _campaign(case, p, spec, f, seed, outputs, form="own"):
             fac = lambda n: ((1 + P / 20) / (1 + ref / 20)) ** n  # noqa: E731
             s = spec.replace(kp=spec.support.kp * fac(p["n_p"]),
                              kb=spec.support.kb * fac(p["n_b"]))
-            Y, pos = clean(s, f, outputs=outputs, form=form)
+            Y, pos = clean(s, f, outputs=outputs, form=form, cache=cache)
             out.append(measurement(noisy(Y, seed * 7 + i), pos, f, outputs,
                                    Metadata(date=f"2020-0{i + 1}-01",
                                             notes={"static_load_kn": P})))
