@@ -13,12 +13,25 @@ stiff sleeper is the base model) and the B90 shape (length 2.6 m, rail seats 1.5
 the equivalent rectangular section); its bending and shear stiffness are scaled together
 so that its first free-free bending frequency is ``f1`` (the free frequencies then scale
 exactly with the square root of the stiffness). Both parameters start at the literature
-defaults of railfem.track.sleeper (f1 = 113 Hz of the B90/B91-type sleeper, eta = 0.02) and
-are bounded to a wide range around them (40-800 Hz: measured monobloc concrete sleepers
-have their first mode at ~100-200 Hz); the fit starts f1 from values 10 % apart over
-its bounds (F1_SCAN: a mode's misfit basin is narrow). No Gaussian prior: in this library a
-prior marks a random effect, whose screening leaves the rail loss factor unprofiled (a
-sleeper's damping trades against the rail's)."""
+defaults of railfem.track.sleeper (f1 = 113 Hz of the B90/B91-type sleeper, eta = 0.02).
+f1 is bounded to a wide range around its default (40-800 Hz: measured monobloc concrete
+sleepers have their first mode at ~100-200 Hz); the fit starts f1 from values 10 % apart
+over its bounds (F1_SCAN: a mode's misfit basin is narrow).
+
+The loss factor eta_s is the sleeper's own bending damping, bounded to what a concrete
+sleeper can have (ETA_S_RANGE, 0.005-0.1): free-free modal tests of prestressed concrete
+monobloc sleepers find modal damping of the order of 1 % of critical (loss factor ~0.02;
+Remennikov & Kaewunruen, ASEC 2005; Kaewunruen & Remennikov, "Dynamic properties of
+railway track and its components: a state-of-the-art review", 2008), and the track models
+with flexible sleepers (Grassie & Cox, Proc. IMechE 198D, 1984; Knothe & Grassie, Vehicle
+System Dynamics 22, 1993; Thompson, Railway Noise and Vibration, 2009, ch. 3) give the
+sleeper a loss factor of that order. The much larger damping a sleeper shows in the
+track is the ballast's, which the base already has (eta_b). The bound leaves 5 times the
+literature value for a cracked sleeper or its contact with the pad; an open bound (0.5)
+let a heavily damped sleeper (eta_s ~0.3, every mode smeared out) stand in for added rail
+damping on data from another model (a rail damper's band). No Gaussian prior: in this
+library a prior marks a random effect, whose screening leaves the rail loss factor
+unprofiled (a sleeper's damping trades against the rail's)."""
 from __future__ import annotations
 
 from dataclasses import replace
@@ -32,6 +45,9 @@ from railfem.track.sleeper import B90, Sleeper
 #: the default sleeper's first free-free bending frequency (Hz) and loss factor (-)
 F1_LITERATURE = float(B90.free_frequencies(1)[0])
 ETA_LITERATURE = B90.eta
+#: bounds of the sleeper's own loss factor (-): a concrete sleeper's bending damping, not
+#: the ballast's (see the module docstring for the sources)
+ETA_S_RANGE = (0.005, 0.1)
 #: start values of f1 (Hz) for the refit's multi-start: 10 % apart over its bounds. A
 #: sleeper mode of loss factor ~0.03 is a sharp feature of every transfer: the misfit has a
 #: basin only about +-10 % wide around the true f1 and is flat or rising between such
@@ -70,9 +86,11 @@ PARAMETERS = (
                     meaning="first free-free bending frequency of the sleeper (its bending "
                             "stiffness; B90/B91 literature value 113 Hz, measured monobloc "
                             "sleepers ~100-200 Hz)"),
-    EffectParameter(name="eta_s", unit="-", lower=0.002, upper=0.5, log=True,
-                    start=ETA_LITERATURE,
-                    meaning="loss factor of the sleeper's bending (literature ~0.02)"),
+    EffectParameter(name="eta_s", unit="-", lower=ETA_S_RANGE[0], upper=ETA_S_RANGE[1],
+                    log=True, start=ETA_LITERATURE,
+                    meaning="loss factor of the sleeper's own bending (concrete sleepers: "
+                            "~0.02, about 1 % of critical damping; the ballast's damping "
+                            "is the base's eta_b)"),
 )
 
 EFFECT = Effect(

@@ -8,8 +8,9 @@ anti-phase track sees the sleeper's antisymmetric bending modes (301 Hz for the 
 B90/B91-type sleeper) and the in-phase track its symmetric ones (113, 565 Hz), so the
 hammer rail's response changes around all of them. The sleeper is the one of
 sleeper_flexibility (the base model's mass 2 ms, the B90 shape, first free-free bending
-frequency f1, loss factor eta_s, starting at the literature values). Vertical
-tracks only (the two-rail track is vertical)."""
+frequency f1, loss factor eta_s, starting at the literature values; eta_s bounded to a
+concrete sleeper's own damping, sleeper_flexibility.ETA_S_RANGE). Vertical tracks only
+(the two-rail track is vertical)."""
 from railfem.diagnosis.effects import Effect
 from railfem.diagnosis.effects.sleeper_flexibility import PARAMETERS, flexible
 
