@@ -456,8 +456,20 @@ def profile_eta_r(data, evaluator, spec, effects, outcome: Outcome, scale, *,
     best.profile_cost = best.cost if vx is None else vx[1]
     if len(v) < 2:
         return best
-    s2 = best.analysis["residual_variance"]
-    iv = interval_from_profile({"values": list(v), "cost": list(c)}, s2)
+    attach_eta_r_profile(best, done)
+    return best
+
+
+def attach_eta_r_profile(best: Outcome, done: dict) -> None:
+    """best.eta_r_profile from the refits ``done`` ({log10 eta_r on the 1e-6 lattice:
+    Outcome}, best among them): the profile, its 95 % interval, and the Jacobian interval
+    with a finite-difference rail-loss column (_joint_uncertainty: best.analysis redone
+    with the rail loss factor free, the discrepancy's terms included as for every other
+    parameter), which is the reported one."""
+    v = np.array(sorted(done))
+    c = np.array([done[x].cost for x in v])
+    iv = interval_from_profile({"values": list(v), "cost": list(c)},
+                               best.analysis["residual_variance"])
     _joint_uncertainty(best, done)
     joint = best.analysis.get("eta_r")
     best.eta_r_profile = {"values": [float(10 ** x) for x in v], "cost": c.tolist(),
@@ -469,7 +481,24 @@ def profile_eta_r(data, evaluator, spec, effects, outcome: Outcome, scale, *,
                           iv["identifiable"],
                           "reason": "profiled over rail-loss kernels; interval from the "
                                     "Jacobian with a finite-difference rail-loss column"}
-    return best
+
+
+def eta_r_interval(data, evaluator, spec, outcome: Outcome, scale, *, step: float = 0.1,
+                   bounds=None) -> Outcome:
+    """``outcome`` (refitted at the rail loss factor of ``spec``, no effects: a WFE base)
+    with a 95 % interval of its rail loss factor, the estimate kept: the model refitted at
+    the two kernels ``step`` decades either side (warm-started), the interval from the
+    Jacobian with the rail-loss column these give (attach_eta_r_profile). The kernels lie
+    on the lattice of a support effect's short rail-loss profile (0.1 decades about the
+    same value, railfem.diagnosis.loop.screen_single): shared with it."""
+    e0 = math.log10(outcome.eta_r)
+    done = {round(e0, 6): outcome}
+    for le in (round(e0 - step, 6), round(e0 + step, 6)):
+        done[le] = refit(data, evaluator, spec.replace(eta_r=10 ** le), outcome.effects,
+                         outcome.x[:len(BASE)], scale, refine=False, bounds=bounds,
+                         x_start=outcome.x, unfitted=False)
+    attach_eta_r_profile(outcome, done)
+    return outcome
 
 
 def joint_profile(data, ev, spec_b, effect, start: Outcome, scale, gv, *,
