@@ -65,7 +65,7 @@ def test_the_gate_tells_a_thicker_foot_from_the_other_meshs_cut_on():
     from railfem.diagnosis import residual as R
     from railfem.diagnosis.data import prepare
     from railfem.diagnosis.evaluate import Evaluator
-    from railfem.identify import discrepancy as D
+    from railfem.diagnosis.problem import ensemble
     from railfem.identify.problem import Prediction, Scale
 
     f9 = iec61260.ninth_octave_grid(100.0, 6300.0)
@@ -73,7 +73,7 @@ def test_the_gate_tells_a_thicker_foot_from_the_other_meshs_cut_on():
     data = prepare(cross_data("none", 0, f, every=3))
     spec, ev = g.truth_spec(MODEL), Evaluator()
     sc = Scale({"point": 0.43, "transfer": 0.43, "tdr": 0.3},
-               D.ensemble(data.records, ev.receptance, spec))
+               ensemble(data.records, ev, spec))
     sg = effects.get("section_geometry")
 
     def pred(s):

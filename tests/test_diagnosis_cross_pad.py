@@ -83,13 +83,12 @@ def check_along(f, every):
     from railfem.diagnosis import residual as R
     from railfem.diagnosis.data import prepare
     from railfem.diagnosis.evaluate import Evaluator
-    from railfem.diagnosis.problem import BASE, Problem
-    from railfem.identify import discrepancy as D
+    from railfem.diagnosis.problem import BASE, Problem, ensemble
     from railfem.identify.problem import Prediction, Scale, table, used_entries
 
     data = prepare(cross_data("none", 0, f, every=every))
     spec, ev = g.truth_spec(MODEL), Evaluator()
-    disc = D.ensemble(data.records, ev.receptance, spec)
+    disc = ensemble(data.records, ev, spec)
     pb = Problem(data=data, evaluator=ev, spec=spec, scale=Scale({}, disc))
     x = np.array([math.log10(getattr(spec.support, n)) for n in BASE])
     base = R.base_tables(pb, x)

@@ -48,6 +48,41 @@ def test_ensemble_grows_with_the_spread_of_the_variants(small_data):
                                    atol=1e-15)
 
 
+def test_a_variant_evaluated_once_is_the_receptance_without_an_eigen_form(small_data):
+    """Evaluator.receptance_once (the diagnosis's discrepancy variants): the receptance by
+    the coupling solve, equal to the eigen form's to round-off, and no eigen form built
+    (receptance builds and stores one); in the diagnosis's ensemble (noise_scale) the base
+    gets its eigen form, the variants none, and the estimate is the one of receptance."""
+    from railfem.diagnosis.problem import BASE, Problem, ensemble, noise_scale
+    from railfem.identify.forward import Geometry, spectral_key
+    from railfem.track.kernelcache import KernelStore
+
+    def key(spec, r):
+        t = r.fit
+        return spectral_key(spec, Geometry(frequency=t.frequency, outputs=t.outputs,
+                                           sensor_x=t.sensor_x, force_x=t.force_x))
+
+    r = small_data.records[0]
+    spec = g.truth_spec(MODEL)
+    store = KernelStore(directory=False)
+    (_, var), = D.variants(spec, ("constants: catalogue",))
+    once = Evaluator(cache=store).receptance_once(var, r)
+    assert store.get(key(var, r)) is None
+    full = Evaluator(cache=store).receptance(var, r)
+    assert store.get(key(var, r)) is not None
+    np.testing.assert_allclose(once, full, rtol=1e-10, atol=1e-10 * np.abs(full).max())
+    store = KernelStore(directory=False)
+    pb = Problem(data=small_data, evaluator=Evaluator(cache=store), spec=spec, scale={})
+    sc = noise_scale(pb, np.log10([getattr(spec.support, n) for n in BASE]), "ensemble")
+    for r in small_data.records:
+        assert store.get(key(spec, r)) is not None
+        assert all(store.get(key(v, r)) is None for _, v in D.variants(spec))
+    ref = D.ensemble(small_data.records, Evaluator().receptance, spec)
+    assert ensemble(small_data.records, Evaluator(), spec).variants == ref.variants
+    for q, s2 in ref.variance.items():
+        np.testing.assert_allclose(sc.discrepancy.variance[q], s2, rtol=1e-8, atol=1e-12)
+
+
 def test_band_variance_scales_with_the_square_of_the_difference():
     x = np.array([100.0, 110.0, 1000.0, 1100.0])
     d = np.array([1.0, -1.0, 2.0, 0.0])

@@ -184,6 +184,20 @@ class Evaluator:
                 spec = spec.replace(n_supports=need)
         return door_receptance(spec, t.frequency, sx, fx, t.outputs, cache=self.cache)
 
+    def receptance_once(self, spec, record, shift=(0.0, 0.0)) -> np.ndarray:
+        """receptance(spec, record, shift) for a spec evaluated once (a discrepancy
+        variant, railfem.identify.discrepancy.ensemble): a uniform discrete track's kernel
+        without an eigen form is evaluated by the coupling solve (as while screening,
+        screen()) and not kept, so the eigen form (about a second per WFE kernel) is built
+        only for specs evaluated again. The two agree to round-off (2e-14 relative on the
+        WFE variants)."""
+        before = set(self._held)
+        with self.screen():
+            a = self.receptance(spec, record, shift)
+        for key in set(self._held) - before:
+            del self._held[key]
+        return a
+
     def tangents(self, spec, record, shift=(0.0, 0.0)):
         """(receptance, {(support index, 'kp' | 'kb'): d receptance / d ln factor}) of a
         discrete track with deviating supports (the Woodbury path, exact derivatives), or

@@ -233,9 +233,21 @@ def noise_scale(problem: core.Problem, x, discrepancy=None) -> core.Scale:
             raise ValueError(f"discrepancy {discrepancy!r}: give 'ensemble', None or a "
                              "railfem.identify.discrepancy.Discrepancy")
         m = problem.model
-        discrepancy = model_form.ensemble(problem.records, m.evaluator.receptance,
-                                          m.base_spec(np.asarray(x, dtype=float)))
+        discrepancy = ensemble(problem.records, m.evaluator,
+                               m.base_spec(np.asarray(x, dtype=float)))
     return core.Scale(_noise(problem, x), discrepancy)
+
+
+def ensemble(records, evaluator, spec) -> model_form.Discrepancy:
+    """The model-form discrepancy of ``spec`` on ``records``
+    (railfem.identify.discrepancy.ensemble) by ``evaluator`` (an Evaluator): the base by
+    its eigen form, which the refits use after; each variant, evaluated once, by the
+    coupling solve of its kernel (Evaluator.receptance_once: no eigen form)."""
+    def receptance(s, record):
+        return evaluator.receptance(s, record) if s is spec else \
+            evaluator.receptance_once(s, record)
+
+    return model_form.ensemble(records, receptance, spec)
 
 
 def _noise(problem: core.Problem, x) -> dict:
