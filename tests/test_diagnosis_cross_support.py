@@ -67,14 +67,17 @@ def fast_run(case: str, every: int, profile_final: bool = False):
 
 
 def check_sleeper(d, name: str, tol: float = 0.05):
-    """``name`` (a sleeper effect) chosen with the held-out error down >= 50 % and its
-    first-mode frequency within ``tol`` of the truth; no rail damper claimed."""
+    """``name`` (a sleeper effect) chosen with the held-out error down >= 50 %, its
+    first-mode frequency within ``tol`` of the truth and its loss factor within a factor 2
+    (inside the bounds of a concrete sleeper's own damping); no rail damper claimed."""
     truth = g.CASES[name]
     assert d.chosen is not None and d.chosen.name == name, d.statement
     assert d.verdict in ("explained", "partly explained"), d.statement
     assert d.chosen_row["final_held_out"]["reduction"] >= 0.5, d.chosen_row["final_held_out"]
     f1 = d.chosen.theta()[name]["f1"]
     assert abs(f1 / truth["f1"] - 1) < tol, f1
+    eta = d.chosen.theta()[name]["eta_s"]
+    assert abs(np.log(eta / truth["eta_s"])) < np.log(2), eta
 
 
 def test_the_sleeper_mode_frequency_is_scanned_finely_enough_for_its_basin():
