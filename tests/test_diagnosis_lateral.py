@@ -67,6 +67,8 @@ def test_roll_restraint_needs_lateral_data():
 def test_roll_restraint_reports_k_roll():
     """The grip share's interval mapped to k_roll (N m/rad); an interval reaching a foot
     held rigidly (grip 1) is one-sided: "at least X N m/rad"."""
+    from railfem.io.diagnosis_report import interval
+
     eff = effects.get("roll_restraint")
     p = {"name": "roll_restraint.grip", "value": 0.8, "ci95": [0.6, 1.1],
          "identifiable": "weak"}
@@ -74,8 +76,12 @@ def test_roll_restraint_reports_k_roll():
     assert q["name"] == "roll_restraint.k_roll" and q["unit"] == "N m/rad"
     assert q["value"] == pytest.approx(4e6) and q["ci95"][0] == pytest.approx(1.5e6)
     assert q["ci95"][1] == np.inf and q["one_sided"] and "at least 1.5e+06" in q["reason"]
+    assert interval(q) == "at least 1.5e+06"  # as report.md prints it
     (q,) = eff.derived([dict(p, ci95=[0.6, 0.9])])
     assert not q["one_sided"] and q["ci95"][1] == pytest.approx(9e6)
+    (q,) = eff.derived([dict(p, ci95=[-0.1, 1.2])])  # from no grip to a held foot
+    assert not q["one_sided"] and q["ci95"] == [0.0, np.inf] and "not fixed" in q["reason"]
+    assert interval(q) == "[0, inf]"
 
 
 def test_roll_restraint_changes_the_lateral_decay_rate_not_the_vertical():

@@ -48,7 +48,7 @@ def interval(p: dict, key: str = "ci95") -> str:
         lo = f"≤ {lo} (grid edge)"
     if "open on the" in reason and "high side" in reason:
         hi = f"≥ {hi} (grid edge)"
-    if ci[1] == float("inf"):  # a one-sided result (roll_restraint's k_roll)
+    if ci[1] == float("inf") and ci[0] is not None and ci[0] > 0:  # one-sided (k_roll)
         return f"at least {lo}"
     return f"[{lo}, {hi}]"
 

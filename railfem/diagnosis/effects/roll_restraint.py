@@ -82,19 +82,20 @@ def apply(spec, theta, record=None):
 def derived(params: list[dict]) -> list[dict]:
     """The roll stiffness k_roll (N m/rad) of the fitted grip share, as a parameter entry:
     value and 95 % intervals mapped through ``k_roll``; an interval of grip that reaches 1
-    is open at the top (inf): "at least X N m/rad"."""
+    is open at the top (inf): "at least X N m/rad" when it excludes no grip (0)."""
     out = []
     for p in params:
         if p["name"] != f"{EFFECT.name}.grip":
             continue
         lo, hi = p["ci95"]
-        one_sided = hi >= 1.0
+        one_sided = hi >= 1.0 and lo > 0.0
+        why = ("from the grip's 95 % interval" if hi < 1.0 else
+               f"at least {k_roll(lo):.3g} N m/rad: the grip's 95 % interval reaches a "
+               "foot held rigidly, open on the high side" if one_sided else
+               "not fixed: the grip's 95 % interval spans no grip to a foot held rigidly")
         q = {"name": f"{EFFECT.name}.k_roll", "group": "derived", "unit": "N m/rad",
              "value": k_roll(p["value"]), "ci95": [k_roll(lo), k_roll(hi)],
-             "identifiable": p.get("identifiable"), "one_sided": one_sided,
-             "reason": (f"at least {k_roll(lo):.3g} N m/rad: the grip's 95 % interval "
-                        "reaches a foot held rigidly, open on the high side"
-                        if one_sided else "from the grip's 95 % interval")}
+             "identifiable": p.get("identifiable"), "one_sided": one_sided, "reason": why}
         if p.get("ci95_joint"):
             q["ci95_joint"] = [k_roll(v) for v in p["ci95_joint"]]
         out.append(q)
