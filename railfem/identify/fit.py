@@ -35,6 +35,14 @@ Then:
 * **Multi-start**: ``n_starts`` points of a scrambled Sobol sequence in the box (vector
   units: log10 for stiffnesses, loss factors and the mass), run in parallel processes
   (``workers``; BLAS pinned to one thread per process with threadpoolctl); the best is kept.
+* **Kernels on every core**: a WFE fit with more than one worker keeps ``workers``
+  processes for its duration (railfem.identify.profiling.Lanes). Each kernel it needs (the
+  profile nodes, each refinement, the discrepancy's variant on the same section) is split
+  by frequency over them, each process always taking the same part of the grid, so it
+  keeps that part's waves in memory for the next kernel of the same rail; the parts are
+  the whole grid's kernel exactly (the near-field tail solved at the grid's lowest
+  frequency in each). A variant on another section mesh is computed whole in one process
+  (its tail solved once, started while the processes would wait on the multi-start).
 * **Kernel parameters** (eta_r, pad_length; railfem.identify.forward.SLOW) change the
   parameter-free kernel, so the fit does not differentiate through them: it profiles
   (railfem.identify.profiling). The support parameters are fitted at ``slow_nodes``
@@ -244,13 +252,19 @@ def fit(data, model: str = "wfe-discrete", *, parameters=DEFAULT_PARAMETERS, bas
     try:
         slow_profile = None
         t = time.perf_counter()
+        # the variants' near-field tails (any loss factor) while the lanes would wait
+        prefetch = None if lanes is None or discrepancy != "ensemble" else \
+            (lambda: lanes.prefetch(model_form.variants(space.base), space.base.rail))
         if not slow:
             forward.engine(forward.spec(x_base))  # built here once, not in every worker process
+            if prefetch is not None:
+                prefetch()
             runs = run_tasks(problem, start_task, [(s, free) for s in starts], workers, "start")
             x_hat = np.array(min(runs, key=lambda r: r["cost"])["x"])
         else:
             x_hat, runs, slow_profile = fit_with_slow(problem, starts, free, slow[0], slow_nodes,
-                                                      slow_refine, slow_tol, workers, x_base)
+                                                      slow_refine, slow_tol, workers, x_base,
+                                                      after_nodes=prefetch)
         seconds["starts"] = time.perf_counter() - t
 
         t = time.perf_counter()

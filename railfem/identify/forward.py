@@ -275,6 +275,12 @@ def checked_coupling(kernel, spec: TrackSpec, jr, jf, supports, frequency) -> Sp
     return sc
 
 
+def log_building(spec: TrackSpec) -> None:
+    """Say that the engine of spec's kernel parameters is being built."""
+    log.info("fit: building the %s engine for eta_r = %.4g, pad length = %.3g m",
+             spec.model, *kernel_values(spec))
+
+
 def door_receptance(spec: TrackSpec, frequency, sensor_x: float, force_x, outputs, *,
                     force: str = "head", cache=False,
                     tail_frequency: float | None = None) -> np.ndarray:
@@ -341,10 +347,10 @@ class ForwardModel:
             return self._engines["direct"]
         key = kernel_values(spec)
         if key not in self._engines:
-            log.info("fit: building the %s engine for eta_r = %.4g, pad length = %.3g m",
-                     spec.model, *key)
             if self.kind == "spectral" and self.builder is not None:
-                self.builder([spec])
+                self.builder([spec])  # logs the building itself
+            else:
+                log_building(spec)
             if self.kind == "eigen":
                 self._engines[key] = DirectionalEngine(spec, self.geometry, self.direction,
                                                        self.space.names, self.cache,

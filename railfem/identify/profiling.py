@@ -26,7 +26,9 @@ from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
 
-from railfem.identify.forward import door_receptance, part, spectral_arrays, spectral_key
+from railfem.identify.forward import (
+    door_receptance, log_building, part, spectral_arrays, spectral_key,
+)
 from railfem.identify.problem import Problem, SlowProfile
 from railfem.track import kernelcache
 
@@ -86,6 +88,9 @@ class Lanes:
 
     def __init__(self, problem: Problem, n: int):
         self.problem, self.n = problem, int(n)
+        self.built: set = set()  # spectral keys the builder has put into the store
+        self.prefetched: list = []
+        self.computed = 0  # kernels the builder computed (not found in the store)
         self.pools = [ProcessPoolExecutor(max_workers=1, initializer=_init_lane,
                                           initargs=(problem,)) for _ in range(self.n)]
 
@@ -122,8 +127,13 @@ class Lanes:
         todo = {}
         for s in specs:
             key = spectral_key(s, fwd.geometry)
-            if key not in todo and store.get(key) is None:
+            if key in self.built:
+                continue
+            self.built.add(key)
+            log_building(s)
+            if store.get(key) is None:
                 todo[key] = self.submit(_spectral_part, s)
+                self.computed += 1
         t0 = time.perf_counter()
         for n, (key, futs) in enumerate(todo.items(), 1):
             got = [f.result() for f in futs]
@@ -142,6 +152,7 @@ class Lanes:
         futs = [self.submit(_door_part, s, cache,
                             lane=whole.index(k) if k in whole else None)
                 for k, s in enumerate(specs)]
+        self.prefetched.clear()
         out = []
         for fs in futs:
             try:
@@ -149,6 +160,27 @@ class Lanes:
             except Exception as exc:  # noqa: BLE001 -- handed to the caller, as the door's
                 out.append(exc)
         return out
+
+    def prefetch(self, labelled, rail) -> None:
+        """Start the near-field tails (railfem.rail.waves.frozen_tail: solved without the
+        loss factor, shared by every loss factor) of the ``labelled`` specs [(label,
+        spec)] not on ``rail`` in the lanes ``receptances(specs, cache, rail)`` computes
+        them in (whole, in turn), without waiting: the model-form variants' tails while the
+        lanes would otherwise wait on the multi-start. Nothing when the builder found
+        every kernel in the store (a warm cache holds the variants' kernels as well)."""
+        if not self.computed:
+            return
+        specs = [s for _, s in labelled if s.rail != rail]
+        self.prefetched = [self.submit(_tail_part, s, lane=k)[0] for k, s in enumerate(specs)]
+
+
+def _tail_part(problem, rows, spec) -> None:
+    """The near-field tail of spec's rail at the grid's lowest frequency, by the door at
+    that frequency alone (the result is dropped: the tail stays in the wave cache)."""
+    g = problem.forward.geometry
+    f0 = float(g.frequency.min())
+    door_receptance(spec, np.array([f0]), g.sensor_x, g.force_x, g.outputs, force=g.force,
+                    cache=False)
 
 
 def _spectral_part(problem, rows, spec):
@@ -206,15 +238,19 @@ def run_tasks(problem: Problem, fn, arglist, workers: int, what: str):
 
 
 
-def fit_with_slow(problem, starts, free, name, n_nodes, n_refine, tol, workers, x_base):
+def fit_with_slow(problem, starts, free, name, n_nodes, n_refine, tol, workers, x_base, *,
+                  after_nodes=None):
     """Profile over the kernel parameter ``name`` (SlowProfile): multi-start at the middle
     node, warm starts outward, then parabolic refinement of the profile minimum (from the
-    points at the box's edge as well; a concave bracket steps to its better edge)."""
+    points at the box's edge as well; a concave bracket steps to its better edge).
+    after_nodes: called once the nodes' kernels are built (e.g. Lanes.prefetch)."""
     space = problem.box
     i = space.names.index(name)
     lo, hi = space.lower[i], space.upper[i]
     nodes = np.linspace(lo, hi, n_nodes + 2)[1:-1] if n_nodes > 1 else np.array([x_base[i]])
     prebuild_nodes(problem, nodes, i, x_base, workers)
+    if after_nodes is not None:
+        after_nodes()
     mid = len(nodes) // 2
     order = [mid] + [k for d in range(1, len(nodes)) for k in (mid - d, mid + d)
                      if 0 <= k < len(nodes)]
