@@ -3,7 +3,7 @@ foot, 69 frequencies; point + transfers + decay rate) and the SBB decay-rate tab
 
     python benchmarks/bench_fit.py [--workers 2] [--skip-sbb]
         [--out benchmarks/results/results_fit.txt]
-    python benchmarks/bench_fit.py --commands [--old SRC]   # railfem fit, cold and warm
+    python benchmarks/bench_fit.py --commands [--old SRC] [--section NAME]  # cold, warm
     python benchmarks/bench_fit.py --cross SEEDS [--step 2]  # blind cross-model intervals
 
 ``--commands``: ``railfem fit /work/shared/datasets/practice_site_b --out DIR`` (the
@@ -46,6 +46,8 @@ def main(argv=None):
     p.add_argument("--skip-sbb", action="store_true")
     p.add_argument("--commands", action="store_true")
     p.add_argument("--old", type=Path, default=None, metavar="SRC")
+    p.add_argument("--section", default="commands", metavar="NAME",
+                   help="the results file's section --commands writes")
     p.add_argument("--cross", type=int, default=0, metavar="SEEDS")
     p.add_argument("--step", type=int, default=2)
     p.add_argument("--kernel", action="store_true")
@@ -59,7 +61,7 @@ def main(argv=None):
         kernel_child(args.kernel_child[0], args.kernel_child[1], int(args.kernel_child[2]))
         return
     if args.commands or args.cross or args.kernel or args.agree:
-        name, lines = (("commands", command_timings(args.old)) if args.commands
+        name, lines = ((args.section, command_timings(args.old)) if args.commands
                        else ("kernel", kernel_paths()) if args.kernel
                        else (f"agreement {args.agree}", agreement(args.agree)) if args.agree
                        else ("cross", cross_study(args.cross, args.step)))
@@ -168,7 +170,7 @@ def command_timings(old: Path | None) -> list[str]:
              "positions, head + foot, 69 frequencies, wfe-discrete, 5 base parameters)"]
     lines += machine_lines(1)
     lines.append(f"  {'code':46s} {'run':5s} {'wall (s)':>9s} {'CPU (s)':>9s} {'ratio':>7s}")
-    got = {}
+    got, params = {}, {}
     with tempfile.TemporaryDirectory() as tmp:
         for label, src in (("old", old), ("new", None)):
             if label == "old" and old is None:
@@ -178,6 +180,7 @@ def command_timings(old: Path | None) -> list[str]:
                 got[label, run] = run_command(src, cache, Path(tmp) / f"out-{label}-{run}")
                 doc = json.loads((Path(tmp) / f"out-{label}-{run}" / "fit.json").read_text())
                 disc = doc.get("model_form_discrepancy", {}).get("method", "none (old code)")
+                params[label, run] = {q["name"]: q["value"] for q in doc["parameters"]}
         for (label, run), (wall, cpu) in got.items():
             ref = got.get(("old", run))
             ratio = f"{wall / ref[0]:7.2f}" if ref else f"{'-':>7s}"
@@ -185,6 +188,11 @@ def command_timings(old: Path | None) -> list[str]:
                     else f"old: {old}")
             lines.append(f"  {what:46s} {run:5s} {wall:9.2f} {cpu:9.2f} {ratio}")
     lines.append(f"  (ratio: wall new / old in this session; last fit.json discrepancy: {disc})")
+    if ("old", "cold") in params:
+        new, ref = params["new", "cold"], params["old", "cold"]
+        worst = max(abs(new[n] - v) / abs(v) for n, v in ref.items())
+        lines.append(f"  fit.json parameters, new vs old (cold): largest relative difference "
+                     f"{worst:.1e} over {', '.join(ref)}")
     return lines
 
 
