@@ -373,12 +373,13 @@ def lateral_truth_spec(case: str = "none", model: str = LATERAL_MODEL):
 
 def decay_rates(case: str, seed: int, *, bands=LATERAL_BANDS, directions: str = "zy",
                 form: str = "cross", level: float = NOISE, model: str = LATERAL_MODEL,
-                rails=("li", "re")) -> list:
+                rails=("li", "re"), cache=False) -> list:
     """EN 15461 decay rates per one-third-octave band (``bands``: lowest and highest centre,
     Hz) of the lateral case's truth (lateral_truth_spec) in ``form`` ('cross': CROSS), one
     row per direction ('z' vertical hammer and sensor on the head top, 'y' lateral on the
     side of the head) and rail (repeats: same section and date, independent noise), each
-    band scattered by a seeded multiplicative Gaussian of RMS ``level``."""
+    band scattered by a seeded multiplicative Gaussian of RMS ``level``; ``cache``: the
+    kernel cache of the model (as clean)."""
     from railfem.measurement import DecayRateMeasurement
 
     spec = lateral_truth_spec(case, model)
@@ -388,7 +389,7 @@ def decay_rates(case: str, seed: int, *, bands=LATERAL_BANDS, directions: str = 
     out = []
     for d in directions:
         r = models.decay_rate(spec, f, output="head_lateral" if d == "y" else "head",
-                              cache=False)
+                              cache=cache)
         for side in rails:
             dr = np.asarray(r.decay_rate) * (1 + level * rng.standard_normal(len(r.frequency)))
             out.append(DecayRateMeasurement(
