@@ -6,12 +6,14 @@ import importlib
 from types import SimpleNamespace
 
 import numpy as np
+import pytest
 
 import railfem as rf
 from railfem import models
 from railfem.identify import discrepancy
 from railfem.identify.forward import ForwardModel, Geometry, door_receptance
 from railfem.identify.profiling import Lanes
+from railfem.measurement import HammerMeasurement, Sensor
 from railfem.params import ParameterSpace
 from railfem.spec import RailSpec
 from railfem.track.kernelcache import KernelStore
@@ -61,3 +63,29 @@ def test_lanes_build_the_engines_and_variants_of_one_process():
         ref = door_receptance(s, FREQ, 0.0, geometry.force_x, geometry.outputs,
                               cache=False)
         assert rel(a, ref) < 1e-12
+
+
+@pytest.mark.slow  # two whole fits, ~10 s CPU; the two tests above cover the parts
+def test_a_fit_on_two_lanes_is_the_fit_in_one_process():
+    """The whole cold fit (rail-loss profile, its refinement, the discrepancy's variants
+    with their prefetched tails, the refit under the final scales) with workers=2 gives the
+    serial fit's estimates and costs."""
+    spec = small_spec().replace(kp=400e6, eta_p=0.2, kb=60e6, eta_b=1.0, eta_r=0.02)
+    f = np.geomspace(100.0, 3000.0, 4)
+    xs, pos, hx = models.hammer_x(spec, positions=np.array([0.0, 0.3, 0.6, 1.2, 2.4]))
+    a = models.receptance(spec, f, hx, [xs], outputs=("head",), cache=False)[:, :, 0, :]
+    pos = pos.copy()
+    pos[0] = models.POINT_OFFSET
+    frf = rf.FRF(frequency=f, values=2j * np.pi * f[:, None, None] * a, quantity="mobility",
+                 response=("head",), force=tuple(f"x{p:.3f}" for p in pos))
+    meas = HammerMeasurement(frf=frf, positions=pos, sensors=(Sensor(name="head"),),
+                             sleeper_spacing=spec.spacing, sensor_x=xs)
+    base = small_spec()
+    runs = [F.fit(meas, base=base, use=("point", "transfer"), n_starts=1, workers=w,
+                  profiles=(), cache=KernelStore(directory=False)) for w in (2, 1)]
+    laned, serial = runs
+    assert laned.discrepancy["variants"] == serial.discrepancy["variants"]
+    assert len(laned.discrepancy["variants"]) == 3
+    np.testing.assert_allclose(laned.x, serial.x, rtol=1e-9, atol=1e-12)
+    assert laned.cost == pytest.approx(serial.cost, rel=1e-9)
+    assert laned.slow_profile["cost"] == pytest.approx(serial.slow_profile["cost"], rel=1e-9)
