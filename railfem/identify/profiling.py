@@ -22,7 +22,7 @@ from __future__ import annotations
 import logging
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import BrokenExecutor, ProcessPoolExecutor
 
 import numpy as np
 
@@ -148,6 +148,8 @@ class Lanes:
         raised. A spec on ``rail`` (a RailSpec: the lanes hold the waves of their parts)
         is split over the lanes, each other one computed whole in one lane in turn (its
         near-field tail solved once)."""
+        if isinstance(cache, kernelcache.KernelStore):  # its folder, not its memory
+            cache = cache.directory or False
         whole = [k for k, s in enumerate(specs) if rail is None or s.rail != rail]
         futs = [self.submit(_door_part, s, cache,
                             lane=whole.index(k) if k in whole else None)
@@ -157,6 +159,8 @@ class Lanes:
         for fs in futs:
             try:
                 out.append(np.concatenate([f.result() for f in fs]))
+            except BrokenExecutor:  # a lane died: not the variant's failure
+                raise
             except Exception as exc:  # noqa: BLE001 -- handed to the caller, as the door's
                 out.append(exc)
         return out
