@@ -254,7 +254,8 @@ def diagnose_args(p: argparse.ArgumentParser) -> None:
     base_args(p)
     p.add_argument("--starts", type=count, default=4, metavar="N",
                    help="multi-start points of the base fit (default 4)")
-    add_workers(p, "parallel processes of the base fit")
+    add_workers(p, "parallel processes of the base fit, the candidates' screening and "
+                   "the pairs")
     p.add_argument("--reference", type=Path, default=None, metavar="REF",
                    help="diagnose against a reference section: REF a dataset or decay-rate "
                         "table of it (rows of the same date where the table has them), or "

@@ -52,12 +52,14 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from railfem.diagnosis import effects as library
+from railfem.diagnosis import parallel
 from railfem.diagnosis import residual as resid
 from railfem.diagnosis.data import LATERAL_ONLY, DiagnosisData, prepare
 from railfem.diagnosis.evaluate import Evaluator, lateral_spec
 from railfem.diagnosis.gates import final_gate, held_gate, passes, plausibility
 from railfem.diagnosis.problem import BASE, DISCREPANCY, Problem, noise_scale
-from railfem.diagnosis.refit import REFINE_STEPS, Outcome, joint_profile, profile_eta_r, refit
+from railfem.diagnosis.refit import (ETA_R_LATTICE, REFINE_STEPS, Outcome, eta_r_interval,
+                                     joint_profile, profile_eta_r, refit)
 from railfem.diagnosis.verdict import decide
 from railfem.identify.base import ETA_R_RANGE, default_base, describe_base
 from railfem.spec import TrackSpec, model_kind
@@ -174,6 +176,7 @@ class Search:
     profile_final: bool = True
     failures: list = field(default_factory=list)
     bounds: dict | None = None  # base bounds {name: (low, high)} (a reference section's)
+    workers: int = 1  # processes screening the candidates and pairs (parallel.run)
 
     def fail(self, candidate: str, stage: str, exc: BaseException) -> None:
         """Record (and log) that ``candidate`` failed at ``stage``: the run goes on."""
@@ -261,13 +264,17 @@ def fit_base(data: DiagnosisData, model: str, spec0: TrackSpec, ev: Evaluator, *
                       discrepancy=None)  # a start: the base refit below carries it
     spec_b = spec0.replace(eta_r=fr.spec.rail.eta)
     x0 = np.array([math.log10(getattr(fr.spec.support, n)) for n in BASE])
+    parallel.prefetch(ev, workers, parallel.base_kernels(ev, data, spec_b, x0, discrepancy,
+                                                         profile_final))
     scale = noise_scale(Problem(data=data, evaluator=ev, spec=spec_b, scale={}), x0,
                         discrepancy)
     s = Search(data=data, model=model, ev=ev, spec=spec_b, scale=scale,
                profile_final=profile_final)
     base_o = refit(data, ev, spec_b, (), x0, scale)
-    if s.profiles:  # WFE: the base fit's own profile (its kernels) stands
+    if s.profiles:  # beam models; a WFE base keeps the start fit's value (its kernels),
         base_o = profile_eta_r(data, ev, spec_b, (), base_o, scale, max_steps=s.eta_r_steps)
+    elif s.wfe and profile_final:  # its interval from two kernels support effects share
+        base_o = eta_r_interval(data, ev, spec_b, base_o, scale)
     s.spec = spec_b.replace(eta_r=base_o.eta_r)
     s.base = base_o
     s.pred_base = base_o.problem.predict(base_o.x)
@@ -290,6 +297,8 @@ def base_from_reference(data, model, spec0, ev, reference, *, profile_final,
     if s.profiles:
         base_o = profile_eta_r(data, ev, spec_b, (), base_o, scale, max_steps=s.eta_r_steps,
                                bounds=bounds)
+    elif s.wfe and profile_final:
+        base_o = eta_r_interval(data, ev, spec_b, base_o, scale, bounds=bounds)
     s.spec = spec_b.replace(eta_r=base_o.eta_r)
     s.base = base_o
     s.pred_base = base_o.problem.predict(base_o.x)
@@ -328,28 +337,76 @@ def support_only(e) -> bool:
             and not set(e.needs) & {"deviations", "lateral", "wfe"})
 
 
+def screen_one(s: Search, e) -> tuple[Outcome, dict]:
+    """Step 3 for one effect, scored: (its Outcome, its row; screen_single, the gates)."""
+    te = time.perf_counter()
+    o = screen_single(s, e)
+    gate = held_gate(s.base, o, pred_ref=s.pred_base)
+    ok, why = plausibility(o)
+    row = _row(o, s.base, s.base, gate, ok, why)
+    row["seconds"] = time.perf_counter() - te
+    return o, row
+
+
+def kernel_groups(s: Search, cands) -> list[list[int]]:
+    """Candidates (indices) that share kernels, each group run in turn in one worker (the
+    deviating supports' Woodbury form, the shifted geometries' banks, a WFE model's
+    support effects' rail-loss lattice: a beam kernel costs less than the wait), the
+    costliest group first (cost_hint)."""
+    keys: dict = {}
+    for i, e in enumerate(cands):
+        key = ("deviations" if "deviations" in e.needs else "geometry"
+               if e.kind == "geometry" else "support" if s.wfe and support_only(e) else i)
+        keys.setdefault(key, []).append(i)
+    groups = list(keys.values())
+    return sorted(groups, key=lambda g: -(max(cost_hint(cands[i]) for i in g)
+                                          + 0.1 * (len(g) - 1)))
+
+
+def cost_hint(e) -> float:
+    """A rough rank of an effect's screening cost (the kernels it builds), to start the
+    costliest first."""
+    if "wfe" in e.needs:
+        return 8.0  # a rail section per grid value
+    if e.kind == "spec" and set(e.grid) - {"index", "spread"}:
+        return 4.0  # a kernel per grid value (pad length)
+    if "deviations" in e.needs:
+        return 3.0 if e.prior is not None else 2.0
+    if e.kind == "geometry":
+        return 2.5  # a kernel of every registered shift
+    if support_only(e):
+        return 2.0  # the rail-loss kernels the base step has not built
+    return 0.0 if e.kind == "measurement" else 1.0
+
+
+def shared(s: Search) -> dict:
+    """What workers' results refer to by reference (railfem.diagnosis.parallel)."""
+    return {"ev": s.ev, "data": s.data, "records": s.data.records, "scale": s.scale,
+            "spec": s.spec, "base": s.base, "bounds": s.bounds,
+            **{f"record {i}": r for i, r in enumerate(s.data.records)}}
+
+
 def screen_singles(s: Search, cands) -> tuple[dict, list]:
     """Step 3: every candidate refitted, gated and scored against the base
-    ({name: Outcome}, rows); a candidate that fails is recorded in ``s.failures``."""
-    outcomes, rows = {}, []
-    for e in cands:
-        te = time.perf_counter()
-        try:
-            o = screen_single(s, e)
-            gate = held_gate(s.base, o, pred_ref=s.pred_base)
-            ok, why = plausibility(o)
-            row = _row(o, s.base, s.base, gate, ok, why)
-        except Exception as exc:  # noqa: BLE001 - one candidate must not end the run
-            s.fail(e.name, "screening", exc)
+    ({name: Outcome}, rows, in the candidates' order); in ``s.workers`` processes
+    (railfem.diagnosis.parallel: each logged as it is done). A candidate that fails is
+    recorded in ``s.failures``."""
+    done, n0 = {}, len(s.failures)
+    for i, ok, value in parallel.run(lambda e: screen_one(s, e), cands, s.workers,
+                                     shared(s), groups=kernel_groups(s, cands)):
+        if not ok:
+            s.fail(cands[i].name, "screening", value)
             continue
-        row["seconds"] = time.perf_counter() - te
-        outcomes[o.name] = o
-        rows.append(row)
+        o, row = done[i] = value
+        gate = row["held_out"]
         log.info("diagnosis: %s: dBIC %.1f, held-out %s %.0f %%, %s (%.1f s)", o.name,
                  row["delta_bic"], "pass" if gate.get("pass") else "fail",
-                 100 * (gate.get("reduction") or 0), "plausible" if ok else why,
-                 row["seconds"])
-    return outcomes, rows
+                 100 * (gate.get("reduction") or 0),
+                 "plausible" if row["plausible"] else row["implausible_why"], row["seconds"])
+    order = {e.name: i for i, e in enumerate(cands)}
+    s.failures[n0:] = sorted(s.failures[n0:], key=lambda f: order[f["candidate"]])
+    outcomes = {done[i][0].name: done[i][0] for i in sorted(done)}
+    return outcomes, [done[i][1] for i in sorted(done)]
 
 
 def pairable(ea, eb) -> bool:
@@ -366,32 +423,40 @@ def pairable(ea, eb) -> bool:
 
 def screen_pairs(s: Search, outcomes: dict, rows: list, max_pairs: int) -> None:
     """Step 5: pairs of the (up to max_pairs) best kept singles, each gated against the
-    better single of the two; outcomes and rows are extended in place."""
+    better single of the two (in ``s.workers`` processes); outcomes and rows are extended
+    in place, in the pairs' order."""
     kept = sorted([r for r in rows if passes(r, s.base.bic)], key=lambda r: r["bic"])
-    if len(kept) < 2:
-        return
-    top = kept[:max_pairs]
-    for i in range(len(top)):
-        for j in range(i + 1, len(top)):
-            ea, eb = (library.get(top[i]["name"]), library.get(top[j]["name"]))
-            if not pairable(ea, eb):
-                continue
-            ref = outcomes[top[i]["name"]]
-            try:
-                o = refit(s.data, s.ev, s.spec, (ea, eb), s.x_base, s.scale,
-                          grid_values=pair_grid_values(ea, eb, s.data, s.model),
-                          refine_steps=s.refine_steps, bounds=s.bounds)
-                if s.profiles:
-                    o = profile_eta_r(s.data, s.ev, s.spec, (ea, eb), o, s.scale,
-                                      max_steps=6, refine=False, bounds=s.bounds)
-                gate = held_gate(ref, o)
-                ok, why = plausibility(o)
-                row = _row(o, ref, s.base, gate, ok, why)
-            except Exception as exc:  # noqa: BLE001 - one pair must not end the run
-                s.fail(f"{ea.name}+{eb.name}", "pairs", exc)
-                continue
-            outcomes[o.name] = o
-            rows.append(row)
+    top = kept[:max_pairs] if len(kept) >= 2 else []
+    pairs = [(library.get(top[i]["name"]), library.get(top[j]["name"]))
+             for i in range(len(top)) for j in range(i + 1, len(top))]
+    pairs = [(ea, eb) for ea, eb in pairs if pairable(ea, eb)]
+    done, n0 = {}, len(s.failures)
+    for i, ok, value in parallel.run(lambda p: screen_pair(s, outcomes[p[0].name], *p),
+                                     pairs, s.workers, dict(shared(s), outcomes=outcomes)):
+        if ok:
+            done[i] = value
+        else:
+            s.fail("+".join(e.name for e in pairs[i]), "pairs", value)
+    order = {"+".join(e.name for e in p): i for i, p in enumerate(pairs)}
+    s.failures[n0:] = sorted(s.failures[n0:], key=lambda f: order[f["candidate"]])
+    for i in sorted(done):
+        o, row = done[i]
+        outcomes[o.name] = o
+        rows.append(row)
+
+
+def screen_pair(s: Search, ref: Outcome, ea, eb) -> tuple[Outcome, dict]:
+    """Step 5 for one pair: refitted (the rail loss factor profiled with a beam model),
+    gated against ``ref`` (the better single): (its Outcome, its row)."""
+    o = refit(s.data, s.ev, s.spec, (ea, eb), s.x_base, s.scale,
+              grid_values=pair_grid_values(ea, eb, s.data, s.model),
+              refine_steps=s.refine_steps, bounds=s.bounds)
+    if s.profiles:
+        o = profile_eta_r(s.data, s.ev, s.spec, (ea, eb), o, s.scale,
+                          max_steps=6, refine=False, bounds=s.bounds)
+    gate = held_gate(ref, o)
+    ok, why = plausibility(o)
+    return o, _row(o, ref, s.base, gate, ok, why)
 
 
 def _sort(rows: list) -> None:
@@ -444,6 +509,11 @@ def final_refit(s: Search, chosen: Outcome) -> Outcome:
         return chosen
     grid_fix = {k: (v,) for k, v in chosen.grid.items()}
     spec_c = s.spec.replace(eta_r=chosen.eta_r)
+    if s.wfe and s.eta_r_steps > 0:  # the profile's first two kernels, ahead
+        e0 = math.log10(chosen.eta_r)
+        parallel.prefetch(s.ev, s.workers, [parallel.evaluation(
+            s.ev, s.data, s.spec.replace(eta_r=10 ** round(e0 + d, 6)), chosen.effects,
+            chosen.grid, chosen.x) for d in (-ETA_R_LATTICE, ETA_R_LATTICE)])
     start = refit(s.data, s.ev, spec_c, chosen.effects, s.x_base, s.scale,
                   grid_values=grid_fix, refine=False, x_start=chosen.x, unfitted=False,
                   bounds=s.bounds)
@@ -478,7 +548,9 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
     None: noise only; or a Discrepancy); ``reference``: a calibrated reference section
     (railfem.diagnosis.reference.BaseReference; railfem.diagnosis.reference.diagnose
     makes one from data or a fit): the base is held inside its bounds, so the residual
-    shows what differs. See the module docstring for the steps. A
+    shows what differs; ``workers``: processes of the base fit and of the screening of
+    the candidates and the pairs (railfem.diagnosis.parallel: the same results, each
+    candidate logged as it is done). See the module docstring for the steps. A
     candidate that fails
     (an exception in its screening, its pairs or its final refit) is logged and listed in
     ``Diagnosis.failures``; the run goes on without it."""
@@ -493,6 +565,7 @@ def diagnose(data, *, model: str = "wfe-discrete", base: TrackSpec | None = None
     s, fr = fit_base(data, model, spec0, ev, n_starts=n_starts, workers=workers, cache=cache,
                      seed=seed, profile_final=profile_final, discrepancy=discrepancy,
                      reference=reference)
+    s.workers = workers
     res_before = resid.make_residual(data, s.pred_base, discrepancy=s.scale)
     repeats = resid.repeat_scatter(data)
     st_before = resid.structure_test(res_before, n_parameters=s.base.k, repeats=repeats)

@@ -19,7 +19,11 @@ worker in their own order, as a serial run would.
 * **Failures**: an exception of an item is its value (ok False); the caller reports it and
   goes on. **Ctrl-C** reaches the parent only (the workers ignore SIGINT): the pool is
   terminated and KeyboardInterrupt raised.
-* **BLAS** runs on one thread per worker (threadpoolctl).
+* **BLAS** runs on one thread per worker (threadpoolctl). With one BLAS thread in the
+  parent as well (the command line's and the tests' setting) the results are the serial
+  run's to the last bit; a parent on threaded BLAS differs from its workers by round-off
+  (1e-15 in an eigen form), which a refit's stopping rule can carry to ~1e-6 along a
+  flat direction.
 
 ``prefetch`` computes ahead, in the workers, the kernels a serial step of the diagnosis
 will ask for (the base step's discrepancy variants and rail-loss neighbours,
@@ -36,6 +40,7 @@ import multiprocessing
 import pickle
 import queue
 import signal
+import time
 
 from railfem.diagnosis import effects as library
 from railfem.diagnosis.problem import Problem
@@ -242,8 +247,11 @@ def prefetch(ev, workers: int, thunks) -> None:
     process's own); an error is left to the parent's own evaluation."""
     if workers <= 1 or len(thunks) < 2 or kernelcache.resolve(ev.cache).directory is None:
         return
+    t0 = time.perf_counter()
     for _ in run(lambda f: f(), thunks, workers, {}, quiet=True):
         pass
+    log.info("diagnosis: %d evaluations' kernels built ahead in %d processes (%.1f s)",
+             len(thunks), min(workers, len(thunks)), time.perf_counter() - t0)
 
 
 def evaluation(ev, data, spec, effects=(), grid=None, x=None, once: bool = False):
