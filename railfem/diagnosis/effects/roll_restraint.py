@@ -38,11 +38,14 @@ its bounds by 1 % of the range, a 95 % half-width below half the range
 (railfem.identify.uncertainty); the upper bound 0.9999 (k_roll 1e10 N m/rad) is a foot
 held rigidly for every rail seat of the library. The BIC and held-out gates do not change.
 
-**The loss factor is not fitted**: eta_roll is tied to the fitted pad's loss factor
-eta_p (assumed: the grip acts through the same kind of elastic layers, the insulators
-under the clip toes and between foot and guide plates, as the pad). Free, it was not
-identifiable (it drifted to a bound of 0.01-2 on blind and SBB data alike): the loss of a
-grip that nearly holds the foot dissipates little, as the foot hardly moves against it.
+**The loss factor is not fitted**: eta_roll is fixed at ETA_ROLL = 0.1 (assumed: the lower
+end of the clips' 0.1-0.2 assumed in docs/model.md; a grip of steel clips and polyamide
+guide plates is not a rubber pad). Free, it was not identifiable (it drifted to a bound of
+0.01-2 on blind and SBB data alike): the loss of a grip that nearly holds the foot
+dissipates little, as the foot hardly moves against it. It is not tied to the fitted pad's
+loss factor: on the SBB lateral rows the base's eta_p (0.6-2) takes up damping the
+single-layer support lacks, and a grip with that loss fitted worse than one near 0.01
+(B3 2012-09-12: dBIC +0.2 against -11.5 with eta_roll free).
 
 The lateral clip stiffness k_clip is not a parameter: it acts in parallel with the lateral
 pad and in series with the same lateral sleeper-ballast chain, which on lateral rows the
@@ -62,6 +65,7 @@ from railfem.diagnosis.effects import Effect, EffectParameter
 K_ROLL_CLIPS = 6e3  # N m/rad: the elastic clips of a W14-type fastening (docs/model.md)
 K_REF = 1e6  # N m/rad: the reference roll stiffness of the grip's share (module docstring)
 GRIP_MAX = 0.9999  # grip's upper bound: k_roll = 1e10 N m/rad, a foot held rigidly
+ETA_ROLL = 0.1  # the grip's loss factor (assumed; module docstring)
 
 
 def k_roll(grip: float) -> float:
@@ -76,7 +80,7 @@ def grip(k: float) -> float:
 
 def apply(spec, theta, record=None):
     return spec.replace(support=replace(spec.support, k_roll=k_roll(float(theta["grip"])),
-                                        eta_roll=float(spec.support.eta_p)))
+                                        eta_roll=ETA_ROLL))
 
 
 def derived(params: list[dict]) -> list[dict]:
@@ -117,5 +121,5 @@ EFFECT = Effect(
                                 "foot's roll restraint per support (0: no grip; 1: the "
                                 "foot held; elastic clips of a W14-type fastening ~0.006, "
                                 "above ~0.1 the foot bearing on the guide plates); its "
-                                "loss factor is the pad's"),
+                                "loss factor 0.1 (assumed)"),
     ))
