@@ -165,3 +165,14 @@ def test_candidates_sharing_kernels_are_one_group_the_costliest_first():
     assert wfe[-1] == ["noise_floor"]  # a measurement effect: no kernel
     beam = groups("timoshenko-discrete")
     assert ["ballast_mass"] in beam and ["foot_damping"] in beam
+
+
+def _in_a_pool(_):
+    return [i for i, ok, v in parallel.run(lambda x: x * 2, [1, 2, 3], 2, {}) if ok]
+
+
+def test_in_a_pool_worker_the_run_is_serial():
+    """A daemonic process (a pool's worker, e.g. a study running diagnoses) cannot have
+    children: the items run there, in order."""
+    with multiprocessing.get_context("fork").Pool(1) as pool:
+        assert pool.map(_in_a_pool, [0]) == [[0, 1, 2]]

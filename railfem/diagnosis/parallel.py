@@ -185,8 +185,9 @@ def serial(fn, items):
 
 def run(fn, items, workers: int, shared: dict, groups=None, quiet: bool = False):
     """Yield (index, ok, value) of ``fn(item)`` for every item (value: the result, or the
-    exception raised when ok is False): here in the order of ``items`` when workers <= 1,
-    else in ``workers`` forked processes (see the module docstring) as each is done.
+    exception raised when ok is False): here in the order of ``items`` when workers <= 1
+    (or in a daemonic process, e.g. a process pool's worker, which has no children), else
+    in ``workers`` forked processes (see the module docstring) as each is done.
     ``groups``: lists of item indices, each run in turn in one worker (items sharing
     kernels), started in the order given (the costliest first); default one per item.
     ``shared``: {name: object} the parent holds and results refer to (by reference);
@@ -194,7 +195,8 @@ def run(fn, items, workers: int, shared: dict, groups=None, quiet: bool = False)
     items = list(items)
     groups = [list(g) for g in (groups or [[i] for i in range(len(items))])]
     n = min(int(workers), len(groups))
-    if n <= 1 or "fork" not in multiprocessing.get_all_start_methods():
+    if (n <= 1 or "fork" not in multiprocessing.get_all_start_methods()
+            or multiprocessing.current_process().daemon):  # a pool's worker: no children
         yield from serial(fn, items)
         return
     objects = dict(shared)
