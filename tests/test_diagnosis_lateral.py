@@ -147,10 +147,15 @@ SMALL_BANDS = (100.0, 400.0)  # Hz: the roll restraint acts below ~300 Hz
 
 
 def blind(case, seed, bands, profile):
-    rows = g.decay_rates(case, seed, bands=bands)
+    """The blind diagnosis; data and diagnosis through the run's kernel cache
+    (tests/conftest.py: a fresh folder per run, content-keyed kernels): the cases' data on
+    the same bands share their kernels across seeds, and the estimator's kernels (the base
+    fit's rail-loss nodes, the roll restraint's grid) are the same for every case on the
+    same bands, so the blind tests run on one xdist worker (xdist_group)."""
+    rows = g.decay_rates(case, seed, bands=bands, cache=True)
     return diagnose(rows, model=g.LATERAL_MODEL, spacing=0.6, effects=("roll_restraint",),
                     data_options={"directions": "zy"}, n_starts=2, pairs=False,
-                    profile_final=profile)
+                    profile_final=profile, cache=True)
 
 
 # the default run: clean data and the guide plates' grip (5e6 N m/rad), seven bands, the
@@ -162,6 +167,7 @@ SLOW = [pytest.param(c, s, b, True, marks=pytest.mark.slow)
         for b in (SMALL_BANDS, g.LATERAL_BANDS)]
 
 
+@pytest.mark.xdist_group("blind roll restraint")
 @pytest.mark.parametrize("case, seed, bands, profile", FAST + SLOW)
 def test_blind_roll_restraint(case, seed, bands, profile):
     """Vertical and lateral decay rates (two rails) of the cross-model truth: with the roll
