@@ -16,7 +16,10 @@ effect (and the best pairs), score, validate on held-out data, and decide.
    kernels shared by all candidates (the base's rail loss absorbed part of any damping
    effect), and a pad length is profiled jointly with it; with a WFE model a support
    effect that beats the base gets a short rail-loss profile. Each is scored by AICc and
-   BIC on the fitted data and by its error on the held-out data.
+   BIC on the fitted data and by its error on the held-out data. With ``workers`` > 1
+   the candidates (and the pairs, step 5) run in worker processes, those sharing kernels
+   in one, and the serial steps' kernels are built ahead there
+   (railfem.diagnosis.parallel): the same results.
 4. **Gates** (railfem.diagnosis.gates; all needed to keep a candidate): *plausible*
    (continuous parameters inside their bounds, not within 1 % of the range of one, and not
    unidentifiable);
