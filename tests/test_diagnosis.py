@@ -6,6 +6,7 @@ effect switched on; the diagnosis is not told which), named errors and the CLI.
 The full blind study (every effect, 10 seeds, realistic size) is tests/test_diagnosis_blind.py
 (slow)."""
 import json
+import math
 import subprocess
 import sys
 
@@ -514,7 +515,8 @@ def test_diagnose_cli_writes_report(tmp_path):
                         "pad_frequency,noise_floor", "--starts", "2", "--out", str(out)],
                        capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, r.stderr
-    s = json.loads((out / "diagnosis.json").read_text())
+    text = (out / "diagnosis.json").read_text()
+    s = json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in diagnosis.json"))
     assert s["chosen"]["name"] == "pad_frequency"
     assert {c["name"] for c in s["candidates"]} == {"pad_frequency", "noise_floor"}
     for f in ("report.md", "candidates.png", "residual_point.png", "residual_map_head.png",
@@ -603,3 +605,17 @@ def test_parabola_step_finds_the_vertex_and_stops_at_ends():
     assert abs(parabola_step(q, 1e-6) - 0.3) < 1e-12
     assert parabola_step({0.0: 0.0, 0.5: 1.0, 1.0: 2.0}, 1e-6) is None  # best at an end
     assert parabola_step({0.0: 1.0, 0.3: 0.0, 1.0: 0.5}, 0.5) is None  # vertex too close
+
+
+def test_diagnosis_json_is_strict_json():
+    """An interval open at the top (roll_restraint's 'at least X') and a NaN test value are
+    null in diagnosis.json, which strict JSON readers then accept; finite values and the
+    other types are kept."""
+    from railfem.jobs.diagnose import strict
+
+    s = {"ci95": [2.9e6, math.inf], "p": float("nan"), "n": np.int64(3),
+         "x": np.array([1.0, -np.inf]), "ok": (0.5, "a", None, True)}
+    out = strict(s)
+    assert out == {"ci95": [2.9e6, None], "p": None, "n": np.int64(3), "x": [1.0, None],
+                   "ok": [0.5, "a", None, True]}
+    json.dumps(out, default=int, allow_nan=False)  # raises on inf or NaN

@@ -110,7 +110,7 @@ def from_parameters(spec: TrackSpec, params, source: str,
         if n in got and got[n].get("value") is not None:
             values[n] = float(got[n]["value"])
             ci = got[n].get("ci95")
-            if ci is not None:
+            if ci is not None and None not in ci:  # null in JSON: an end not found
                 intervals[n] = (float(ci[0]), float(ci[1]))
         else:
             values[n] = float(spec.rail.eta if n == "eta_r" else getattr(spec.support, n))

@@ -51,6 +51,20 @@ def _json(o):
     return str(o)
 
 
+def strict(o):
+    """``o`` with every non-finite float (an interval open at the top, a test that could
+    not run) as None: diagnosis.json is strict JSON, which has no Infinity or NaN."""
+    if isinstance(o, dict):
+        return {k: strict(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [strict(v) for v in o]
+    if isinstance(o, np.ndarray):
+        return strict(o.tolist())
+    if isinstance(o, (float, np.floating)):
+        return float(o) if np.isfinite(o) else None
+    return o
+
+
 def groups_of(items, group: str | None):
     """[(name, [measurement])] for table rows grouped by metadata keys ('section,date')."""
     keys = [k.strip() for k in (group or "").split(",") if k.strip()]
@@ -364,8 +378,8 @@ def write_report(out_dir, d, *, title: str = "", data: str = "DATA",
     out.mkdir(parents=True, exist_ok=True)
     s = summary(d)
     s["next_steps"] = next_steps(s, data, kind)
-    files = [str(write_text(out / "diagnosis.json", json.dumps(s, indent=2, default=_json)
-                            + "\n"))]
+    files = [str(write_text(out / "diagnosis.json", json.dumps(strict(s), indent=2, default=_json,
+                                       allow_nan=False) + "\n"))]
     figs = figures(out, d)
     files += figs
     files.append(str(write_text(out / "report.md", markdown(s, [Path(f).name for f in figs],
