@@ -165,7 +165,8 @@ def test_joint_rail_loss_interval_when_the_best_is_the_start():
     joint analysis must come from another kernel (it once came from the start's own key: a
     zero column, every interval unbounded)."""
     from railfem.diagnosis.problem import Problem, noise_scale
-    from railfem.diagnosis.refit import profile_eta_r, refit
+    from railfem.diagnosis.rail_loss import profile_eta_r
+    from railfem.diagnosis.refit import refit
 
     data = prepare(g.dataset("none", 0, f=SMALL_F))
     ev = Evaluator()
@@ -589,7 +590,7 @@ def test_scatter_test_against_repeat_scatter():
 def test_parabola_vertex_gives_the_minimum_between_lattice_points():
     """The interpolated profile minimum (joint pad-length profile): exact on a parabola
     whose vertex lies between the points, never above the best point, None at an end."""
-    from railfem.diagnosis.refit import parabola_vertex
+    from railfem.identify.problem import parabola_vertex
 
     q = {x: 3e6 * (x - 0.0123) ** 2 + 819.0 for x in (0.0, 0.01, 0.02, 0.05)}
     x, c = parabola_vertex(q)
@@ -599,7 +600,7 @@ def test_parabola_vertex_gives_the_minimum_between_lattice_points():
 
 
 def test_parabola_step_finds_the_vertex_and_stops_at_ends():
-    from railfem.diagnosis.refit import parabola_step
+    from railfem.identify.problem import parabola_step
 
     q = {x: (x - 0.3) ** 2 + 1.0 for x in (0.0, 0.5, 1.0)}
     assert abs(parabola_step(q, 1e-6) - 0.3) < 1e-12

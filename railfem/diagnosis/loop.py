@@ -61,8 +61,9 @@ from railfem.diagnosis.data import LATERAL_ONLY, DiagnosisData, prepare
 from railfem.diagnosis.evaluate import Evaluator, lateral_spec
 from railfem.diagnosis.gates import final_gate, held_gate, passes, plausibility
 from railfem.diagnosis.problem import BASE, DISCREPANCY, Problem, noise_scale
-from railfem.diagnosis.refit import (ETA_R_LATTICE, REFINE_STEPS, Outcome, eta_r_interval,
-                                     joint_profile, profile_eta_r, refit)
+from railfem.diagnosis.rail_loss import (ETA_R_LATTICE, eta_r_interval, joint_profile,
+                                         profile_eta_r)
+from railfem.diagnosis.refit import REFINE_STEPS, Outcome, refit
 from railfem.diagnosis.verdict import decide
 from railfem.identify.base import ETA_R_RANGE, default_base, describe_base
 from railfem.spec import TrackSpec, model_kind
@@ -324,20 +325,13 @@ def screen_single(s: Search, e) -> Outcome:
             o2 = joint_profile(s.data, s.ev, s.spec, e, o, s.scale,
                                grid_values(e, s.data, s.model), bounds=s.bounds)
             o = o2 if o2.cost < o.cost else o
-    elif s.wfe and s.profile_final and support_only(e) and o.bic < s.base.bic:
+    elif s.wfe and s.profile_final and library.support_only(e) and o.bic < s.base.bic:
         # the base's rail loss factor took up part of any added damping: held there, a
         # damping effect lost to a more flexible one (foot damping to rail_damper); a short
         # profile on a coarse lattice, its kernels (~5 s each) shared by the candidates
         o = profile_eta_r(s.data, s.ev, s.spec, (e,), o, s.scale, max_steps=3, step=0.1,
                           refine=False, bounds=s.bounds)
     return o
-
-
-def support_only(e) -> bool:
-    """An effect that changes the uniform supports' dynamic stiffness alone (no kernel grid,
-    no deviating or lateral support): a rail-loss profile costs one kernel per value."""
-    return (e.kind == "spec" and e.prior is None and set(e.grid) <= {"spread"}
-            and not set(e.needs) & {"deviations", "lateral", "wfe"})
 
 
 def screen_one(s: Search, e) -> tuple[Outcome, dict]:
@@ -349,37 +343,6 @@ def screen_one(s: Search, e) -> tuple[Outcome, dict]:
     row = _row(o, s.base, s.base, gate, ok, why)
     row["seconds"] = time.perf_counter() - te
     return o, row
-
-
-def kernel_groups(s: Search, cands) -> list[list[int]]:
-    """Candidates (indices) that share kernels, each group run in turn in one worker (the
-    deviating supports' Woodbury form, the shifted geometries' banks, a WFE model's
-    support effects' rail-loss lattice: a beam kernel costs less than the wait), the
-    costliest group first (cost_hint)."""
-    keys: dict = {}
-    for i, e in enumerate(cands):
-        key = ("deviations" if "deviations" in e.needs else "geometry"
-               if e.kind == "geometry" else "support" if s.wfe and support_only(e) else i)
-        keys.setdefault(key, []).append(i)
-    groups = list(keys.values())
-    return sorted(groups, key=lambda g: -(max(cost_hint(cands[i]) for i in g)
-                                          + 0.1 * (len(g) - 1)))
-
-
-def cost_hint(e) -> float:
-    """A rough rank of an effect's screening cost (the kernels it builds), to start the
-    costliest first."""
-    if "wfe" in e.needs:
-        return 8.0  # a rail section per grid value
-    if e.kind == "spec" and set(e.grid) - {"index", "spread"}:
-        return 4.0  # a kernel per grid value (pad length)
-    if "deviations" in e.needs:
-        return 3.0 if e.prior is not None else 2.0
-    if e.kind == "geometry":
-        return 2.5  # a kernel of every registered shift
-    if support_only(e):
-        return 2.0  # the rail-loss kernels the base step has not built
-    return 0.0 if e.kind == "measurement" else 1.0
 
 
 def shared(s: Search) -> dict:
@@ -396,7 +359,7 @@ def screen_singles(s: Search, cands) -> tuple[dict, list]:
     recorded in ``s.failures``."""
     done, n0 = {}, len(s.failures)
     for i, ok, value in parallel.run(lambda e: screen_one(s, e), cands, s.workers,
-                                     shared(s), groups=kernel_groups(s, cands)):
+                                     shared(s), groups=parallel.kernel_groups(cands, s.wfe)):
         if not ok:
             s.fail(cands[i].name, "screening", value)
             continue

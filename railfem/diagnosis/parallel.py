@@ -274,7 +274,7 @@ def base_kernels(ev, data, spec_b, x0, discrepancy, profile_final: bool) -> list
     """What the base step of a WFE diagnosis evaluates after the start fit, as
     evaluations for prefetch: the discrepancy's variants of the base at x0 ('ensemble':
     railfem.diagnosis.problem.ensemble) and the base at the rail-loss kernels 0.1 decades
-    either side (its interval, railfem.diagnosis.refit.eta_r_interval; the support
+    either side (its interval, railfem.diagnosis.rail_loss.eta_r_interval; the support
     effects' short profile)."""
     if not spec_b.kind.is_wfe:
         return []
@@ -284,3 +284,34 @@ def base_kernels(ev, data, spec_b, x0, discrepancy, profile_final: bool) -> list
     e0 = math.log10(spec_b.rail.eta)
     return out + ([evaluation(ev, data, spec_b.replace(eta_r=10 ** round(e0 + d, 6)), x=x0)
                    for d in (-0.1, 0.1)] if profile_final else [])
+
+
+def kernel_groups(cands, wfe: bool) -> list[list[int]]:
+    """Candidates (indices) that share kernels, each group run in turn in one worker (the
+    deviating supports' Woodbury form, the shifted geometries' banks, a WFE model's
+    support effects' rail-loss lattice (``wfe``): a beam kernel costs less than the wait), the
+    costliest group first (cost_hint)."""
+    keys: dict = {}
+    for i, e in enumerate(cands):
+        key = ("deviations" if "deviations" in e.needs else "geometry"
+               if e.kind == "geometry" else "support" if wfe and library.support_only(e) else i)
+        keys.setdefault(key, []).append(i)
+    groups = list(keys.values())
+    return sorted(groups, key=lambda g: -(max(cost_hint(cands[i]) for i in g)
+                                          + 0.1 * (len(g) - 1)))
+
+
+def cost_hint(e) -> float:
+    """A rough rank of an effect's screening cost (the kernels it builds), to start the
+    costliest first."""
+    if "wfe" in e.needs:
+        return 8.0  # a rail section per grid value
+    if e.kind == "spec" and set(e.grid) - {"index", "spread"}:
+        return 4.0  # a kernel per grid value (pad length)
+    if "deviations" in e.needs:
+        return 3.0 if e.prior is not None else 2.0
+    if e.kind == "geometry":
+        return 2.5  # a kernel of every registered shift
+    if library.support_only(e):
+        return 2.0  # the rail-loss kernels the base step has not built
+    return 0.0 if e.kind == "measurement" else 1.0

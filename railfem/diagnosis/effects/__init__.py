@@ -168,6 +168,13 @@ def get(name: str) -> Effect:
             from None
 
 
+def support_only(e: Effect) -> bool:
+    """An effect that changes the uniform supports' dynamic stiffness alone (no kernel grid,
+    no deviating or lateral support): a rail-loss profile costs one kernel per value."""
+    return (e.kind == "spec" and e.prior is None and set(e.grid) <= {"spread"}
+            and not set(e.needs) & {"deviations", "lateral", "wfe"})
+
+
 def deviation_refusal(kind) -> str:
     """Why an effect with deviating supports (needs 'deviations') cannot be tried on the
     model kind ``kind`` (railfem.spec.ModelKind); '' where it can: the discrete tracks
