@@ -13,10 +13,11 @@ from railfem import models
 from railfem.identify import discrepancy
 from railfem.identify.forward import ForwardModel, Geometry, door_receptance
 from railfem.identify.profiling import Lanes
-from railfem.measurement import HammerMeasurement, Sensor
 from railfem.params import ParameterSpace
 from railfem.spec import RailSpec
 from railfem.track.kernelcache import KernelStore
+
+from benchmarks.blind import generators as g
 
 F = importlib.import_module("railfem.identify.fit")  # the module (identify.fit is the function)
 FREQ = np.array([60.0, 250.0, 900.0, 1800.0, 3100.0])
@@ -76,10 +77,7 @@ def test_a_fit_on_two_lanes_is_the_fit_in_one_process():
     a = models.receptance(spec, f, hx, [xs], outputs=("head",), cache=False)[:, :, 0, :]
     pos = pos.copy()
     pos[0] = models.POINT_OFFSET
-    frf = rf.FRF(frequency=f, values=2j * np.pi * f[:, None, None] * a, quantity="mobility",
-                 response=("head",), force=tuple(f"x{p:.3f}" for p in pos))
-    meas = HammerMeasurement(frf=frf, positions=pos, sensors=(Sensor(name="head"),),
-                             sleeper_spacing=spec.spacing, sensor_x=xs)
+    meas = g.measurement(2j * np.pi * f[:, None, None] * a, pos, f, stated_sensor_x=xs)
     base = small_spec()
     runs = [F.fit(meas, base=base, use=("point", "transfer"), n_starts=1, workers=w,
                   profiles=(), cache=KernelStore(directory=False)) for w in (2, 1)]
