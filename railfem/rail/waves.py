@@ -41,7 +41,8 @@ import scipy.linalg as sl
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
-from .sparseblocks import block_solver, block_sum, diagonal_blocks, on_pattern, real_times
+from .sparseblocks import (block_solver, block_sum, diagonal_blocks, on_pattern,
+                           permuted_pattern, real_times)
 from .waveguide import Waveguide, reduced
 
 log = logging.getLogger(__name__)
@@ -97,6 +98,7 @@ class FamilyOperators:
         self.blocks = diagonal_blocks(self.pattern, self.na)
         self.Z_ap = block_sum(self.na, (K1, "ap")).tocsr()[: self.na, self.na:]  # no M in it
         self.B0r = self.B0.tocsr()
+        self._B0c = self._ordered = None
 
     def constant_matrix(self, omega: float, c: complex | None = None):
         """Z(omega) = c K0' - omega^2 M (+ extra(omega)), CSC; c defaults to 1 + i eta."""
@@ -120,10 +122,7 @@ class FamilyOperators:
         s = omega**2 / c if complex(c).imag else omega**2 / complex(c).real
         data = self.k0_data - s * self.m_data
         if self.extra is None:
-            (iaa, Paa), (ipp, Ppp) = self.blocks
-            Zaa = sp.csc_matrix((data[iaa], Paa.indices, Paa.indptr), shape=Paa.shape)
-            Zpp = sp.csc_matrix((data[ipp], Ppp.indices, Ppp.indptr), shape=Ppp.shape)
-            return block_solver(Zaa, Zpp, self.Z_ap, self.na)
+            return self._block_solve(data)
         P = self.pattern
         Z = (sp.csc_matrix((data, P.indices, P.indptr), shape=P.shape)
              + self.extra(omega) / (c if complex(c).imag else complex(c).real)).tocsc()
@@ -138,6 +137,32 @@ class FamilyOperators:
 
         solve.dtype = Z.dtype
         return solve
+
+    def _block_solve(self, data):
+        """The blockwise solver of the matrix with entries ``data`` on the pattern. The
+        blocks' minimum-degree orderings depend on the pattern only: found by the first
+        factorisation, then reused (the blocks laid out in that order directly)."""
+        def block(positions, P):
+            return sp.csc_matrix((data[positions], P.indices, P.indptr), shape=P.shape)
+
+        if self._ordered is None:
+            (iaa, Paa), (ipp, Ppp) = self.blocks
+            solve = block_solver(block(iaa, Paa), block(ipp, Ppp), self.Z_ap, self.na)
+            qa, qp = solve.orders
+            self._ordered = (permuted_pattern(iaa, Paa, qa), permuted_pattern(ipp, Ppp, qp),
+                             self.Z_ap[qa][:, qp].tocsr(), solve.orders)
+            return solve
+        aa, pp, Zap, orders = self._ordered
+        return block_solver(block(*aa), block(*pp), Zap, self.na, orders)
+
+    def B0_as(self, dtype):
+        """B0 (CSR) with entries of dtype: complex for products with complex vectors (a real
+        sparse matrix times a complex vector converts the matrix on every product)."""
+        if not np.issubdtype(dtype, np.complexfloating):
+            return self.B0r
+        if self._B0c is None:
+            self._B0c = self.B0r.astype(complex)
+        return self._B0c
 
     @property
     def key(self) -> bytes:
@@ -311,9 +336,8 @@ def _lambdas_shift_invert(ops: FamilyOperators, omega: float, n: int, c: complex
     n = min(n, N - 2)
     solve = ops.factorised(omega, c)
     dtype = solve.dtype
-    B = ops.B0r
-    op = spl.LinearOperator(B.shape, dtype=dtype,
-                            matvec=lambda x: -solve(real_times(B, x)))
+    B = ops.B0_as(dtype)
+    op = spl.LinearOperator(B.shape, dtype=dtype, matvec=lambda x: -solve(B @ x))
     # a fixed start vector: ARPACK's own is drawn from a generator that carries over between
     # calls, which would make a result depend (at round-off level) on what ran before
     v0 = np.random.default_rng(0).standard_normal(N).astype(dtype)
