@@ -39,21 +39,22 @@ def diagonal_blocks(P: sp.csc_matrix, na: int):
 LU_OPTIONS = dict(diag_pivot_thresh=0.1, relax=1, panel_size=4, options=dict(SymmetricMode=True))
 
 
-def block_solver(Zaa, Zpp, Zap, na: int, orders=None):
+def block_solver(Zaa, Zpp, Zap, na: int, orders=None, transposed: bool = False):
     """r -> Z^-1 r for Z = [[Zaa, Zap], [0, Zpp]] from one LU of each diagonal block.
 
-    ``orders``: (qa, qp) fill-reducing orderings of the blocks (``block_orders``); the blocks
-    and Zap are then given in that order (Zaa = Z_aa[qa][:, qa], Zap = Z_ap[qa][:, qp]), r and
-    the solution are not. Without them each block is ordered by minimum degree on A^T + A.
-    solve.orders holds the orderings used."""
-    if orders is None:
-        la = spl.splu(Zaa, permc_spec="MMD_AT_PLUS_A", **LU_OPTIONS)
-        lp = spl.splu(Zpp, permc_spec="MMD_AT_PLUS_A", **LU_OPTIONS)
-        qa = qp = None
-    else:
-        qa, qp = orders
-        la = spl.splu(Zaa, permc_spec="NATURAL", **LU_OPTIONS)
-        lp = spl.splu(Zpp, permc_spec="NATURAL", **LU_OPTIONS)
+    Each diagonal block is factorised as its transpose and solved with SuperLU's transposed
+    solve (trans="T"), which is about 20 % faster for one vector than the plain one;
+    ``transposed``: Zaa and Zpp are given as their transposes (CSC), e.g. laid out on a
+    transposed pattern by ``permuted_pattern``. ``orders``: (qa, qp) fill-reducing orderings
+    of the blocks; the blocks and Zap are then given in that order (Zaa = Z_aa[qa][:, qa],
+    Zap = Z_ap[qa][:, qp]), r and the solution are not. Without them each block is ordered by
+    minimum degree on A^T + A. solve.orders holds the orderings used."""
+    if not transposed:
+        Zaa, Zpp = Zaa.T.tocsc(), Zpp.T.tocsc()
+    spec = "MMD_AT_PLUS_A" if orders is None else "NATURAL"
+    la = spl.splu(Zaa, permc_spec=spec, **LU_OPTIONS)
+    lp = spl.splu(Zpp, permc_spec=spec, **LU_OPTIONS)
+    qa, qp = (None, None) if orders is None else orders
     dtype = np.result_type(Zaa.dtype, Zpp.dtype)
     # a complex copy of Zap: a real sparse matrix times one complex vector converts the
     # matrix on every product
@@ -65,12 +66,12 @@ def block_solver(Zaa, Zpp, Zap, na: int, orders=None):
     def solve(r):
         r = np.asarray(r, dtype=np.result_type(dtype, r.dtype))
         if qa is None:
-            xp = lp.solve(r[na:])
-            return np.concatenate([la.solve(r[:na] - times_ap(xp)), xp])
+            xp = lp.solve(r[na:], trans="T")
+            return np.concatenate([la.solve(r[:na] - times_ap(xp), trans="T"), xp])
         x = np.empty_like(r)
-        yp = lp.solve(r[na:][qp])
+        yp = lp.solve(r[na:][qp], trans="T")
         x[na:][qp] = yp
-        x[:na][qa] = la.solve(r[:na][qa] - times_ap(yp))
+        x[:na][qa] = la.solve(r[:na][qa] - times_ap(yp), trans="T")
         return x
 
     solve.dtype = dtype  # complex with a loss factor or a complex foundation stiffness
@@ -78,11 +79,14 @@ def block_solver(Zaa, Zpp, Zap, na: int, orders=None):
     return solve
 
 
-def permuted_pattern(positions: np.ndarray, P: sp.csc_matrix, q: np.ndarray):
+def permuted_pattern(positions: np.ndarray, P: sp.csc_matrix, q: np.ndarray,
+                     transpose: bool = False):
     """(positions, pattern) of a block (as from ``diagonal_blocks``) with rows and columns
-    taken in the order q: the block's entries in P.data order of the permuted pattern."""
+    taken in the order q (``transpose``: of its transpose): the block's entries in P.data
+    order of the new pattern."""
     X = sp.csc_matrix((positions.astype(float) + 1, P.indices, P.indptr), shape=P.shape)
-    Xq = X[q][:, q].tocsc()
+    Xq = X[q][:, q]
+    Xq = (Xq.T if transpose else Xq).tocsc()
     Xq.sort_indices()
     return Xq.data.astype(np.int64) - 1, Xq
 

@@ -141,7 +141,8 @@ class FamilyOperators:
     def _block_solve(self, data):
         """The blockwise solver of the matrix with entries ``data`` on the pattern. The
         blocks' minimum-degree orderings depend on the pattern only: found by the first
-        factorisation, then reused (the blocks laid out in that order directly)."""
+        factorisation, then reused (the blocks' transposes, which block_solver factorises,
+        laid out in that order directly)."""
         def block(positions, P):
             return sp.csc_matrix((data[positions], P.indices, P.indptr), shape=P.shape)
 
@@ -149,11 +150,12 @@ class FamilyOperators:
             (iaa, Paa), (ipp, Ppp) = self.blocks
             solve = block_solver(block(iaa, Paa), block(ipp, Ppp), self.Z_ap, self.na)
             qa, qp = solve.orders
-            self._ordered = (permuted_pattern(iaa, Paa, qa), permuted_pattern(ipp, Ppp, qp),
+            self._ordered = (permuted_pattern(iaa, Paa, qa, transpose=True),
+                             permuted_pattern(ipp, Ppp, qp, transpose=True),
                              self.Z_ap[qa][:, qp].tocsr(), solve.orders)
             return solve
         aa, pp, Zap, orders = self._ordered
-        return block_solver(block(*aa), block(*pp), Zap, self.na, orders)
+        return block_solver(block(*aa), block(*pp), Zap, self.na, orders, transposed=True)
 
     def B0_as(self, dtype):
         """B0 (CSR) with entries of dtype: complex for products with complex vectors (a real
