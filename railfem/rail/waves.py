@@ -130,10 +130,10 @@ class FamilyOperators:
         if Z[na:, :na].count_nonzero() == 0:
             return block_solver(Z[:na, :na].tocsc(), Z[na:, na:].tocsc(),
                                  Z[:na, na:].tocsr(), na)
-        lu = spl.splu(Z, permc_spec="MMD_AT_PLUS_A")
+        lu = spl.splu(Z.T.tocsc(), permc_spec="MMD_AT_PLUS_A")  # the transposed solve is faster
 
         def solve(r):
-            return lu.solve(np.asarray(r, dtype=np.result_type(Z.dtype, r.dtype)))
+            return lu.solve(np.asarray(r, dtype=np.result_type(Z.dtype, r.dtype)), trans="T")
 
         solve.dtype = Z.dtype
         return solve
