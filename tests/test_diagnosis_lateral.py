@@ -113,6 +113,30 @@ def test_roll_restraint_changes_the_lateral_decay_rate_not_the_vertical():
             np.testing.assert_allclose(d1, d0, rtol=1e-8)
 
 
+def test_records_of_one_geometry_share_a_door_evaluation(monkeypatch):
+    """The two rails' lateral records (one geometry) at one spec: one door evaluation (a
+    coupling solve each), the same values to both, each its own copy; another spec is
+    evaluated anew."""
+    from railfem.diagnosis import evaluate
+
+    calls = []
+
+    def door(spec, record, shift, cache):
+        calls.append(record.name)
+        t = record.fit
+        return np.full((len(t.frequency), 1, len(t.positions)), float(len(calls)))
+
+    monkeypatch.setattr(evaluate, "lateral_receptance", door)
+    data = prepare([row("y", "li"), row("y", "re")], spacing=0.6)
+    ev, spec = Evaluator(), default_base("wfe-periodic")
+    a, b = (ev.receptance(spec, r) for r in data.records)
+    assert len(calls) == 1 and np.array_equal(a, b) and a is not b
+    a[:] = 0.0  # a caller's change does not reach the other records
+    assert np.all(ev.receptance(spec, data.records[1]) == 1.0)
+    ev.receptance(spec.replace(kp=3e8), data.records[0])
+    assert len(calls) == 2
+
+
 def test_lateral_spec_follows_the_presets_rule():
     """The lateral chain follows the vertical one by the presets' rule, the grip is kept."""
     spec = default_base("wfe-periodic").replace(kp=3.5e8, eta_p=0.3, kb=8e7, eta_b=0.7,

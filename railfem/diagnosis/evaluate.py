@@ -53,6 +53,7 @@ from railfem.track.supports import SupportParameters, dynamic_stiffness, horizon
 log = logging.getLogger(__name__)
 
 MARGIN = 20.0  # m of supports beyond the outermost position of a track with deviations
+DOOR_MEMO = 8  # door evaluations kept by Evaluator._door (records x specs)
 MAX_UPDATE_BYTES = 1e9  # Woodbury forms kept (records x rail loss factors): (springs)^2 each
 
 
@@ -143,6 +144,7 @@ class Evaluator:
         self.n_kernels = 0
         self.screening = False  # see screen()
         self._held: dict = {}  # kernels evaluated by the coupling solve while screening
+        self._door_memo: OrderedDict = OrderedDict()  # see _door()
 
     @contextmanager
     def screen(self):
@@ -163,7 +165,8 @@ class Evaluator:
             a_s, a_a = (self.receptance(spec.load_case(c), record, shift) for c in LOAD_CASES)
             return (a_s + a_a) / 2
         if is_lateral(record):
-            return lateral_receptance(spec, record, shift, self.cache)
+            return self._door(spec, record, shift,
+                              lambda: lateral_receptance(spec, record, shift, self.cache))
         if spec.kind.is_discrete and spec.uniform:
             a = self._screened(spec, record) if self.screening and shift == (0.0, 0.0) \
                 else None
@@ -182,7 +185,28 @@ class Evaluator:
                                      / spec.spacing) + 1)
             if spec.n_supports < need:
                 spec = spec.replace(n_supports=need)
-        return door_receptance(spec, t.frequency, sx, fx, t.outputs, cache=self.cache)
+        return self._door(spec, record, shift, lambda: door_receptance(
+            spec, t.frequency, sx, fx, t.outputs, cache=self.cache))
+
+    def _door(self, spec, record, shift, compute) -> np.ndarray:
+        """compute() (the door: a coupling solve each call) once per spec and geometry:
+        records of one geometry (the two rails of a section, repeats) at the same spec get
+        the same values, a copy each (the last DOOR_MEMO evaluations kept)."""
+        t = record.fit
+        key = (spec, shift, is_lateral(record), float(t.sensor_x), tuple(t.outputs),
+               np.asarray(t.frequency, dtype=float).tobytes(),
+               np.asarray(t.positions, dtype=float).tobytes())
+        try:
+            a = self._door_memo.get(key)
+        except TypeError:  # a spec with an unhashable field: evaluated each time
+            return compute()
+        if a is None:
+            a = self._door_memo[key] = compute()
+            while len(self._door_memo) > DOOR_MEMO:
+                self._door_memo.popitem(last=False)
+        else:
+            self._door_memo.move_to_end(key)
+        return a.copy()
 
     def receptance_once(self, spec, record, shift=(0.0, 0.0)) -> np.ndarray:
         """receptance(spec, record, shift) for a spec evaluated once (a discrepancy
