@@ -191,10 +191,18 @@ class FamilyOperators:
         return self._lossless
 
     def dA(self, k: np.ndarray, phi: np.ndarray) -> np.ndarray:
-        """psi_n^T A'(k_n) phi_n for every column, A' = c (2 k K2 + i K1)."""
-        K2phi, K1phi = real_times(self.K2, phi), real_times(self.K1, phi)
-        Ap = self.c * (2 * k * K2phi + 1j * K1phi)
-        return np.einsum("ij,ij->j", self.flip[:, None] * phi, Ap)
+        """psi_n^T A'(k_n) phi_n for every column, A' = c (2 k K2 + i K1).
+
+        Formed as c (2 k psi^T K2 phi + i psi^T K1 phi) with psi^T Y = phi_p^T Y_p - phi_a^T Y_a
+        (T_a flips the axial DOFs): no (N, n) temporaries beyond the two products."""
+        na = self.na
+
+        def form(Y):
+            return (np.einsum("ij,ij->j", phi[na:], Y[na:])
+                    - np.einsum("ij,ij->j", phi[:na], Y[:na]))
+
+        return self.c * (2 * k * form(real_times(self.K2, phi))
+                         + 1j * form(real_times(self.K1, phi)))
 
     def group_velocity(self, omega: float, k: np.ndarray, phi: np.ndarray) -> np.ndarray:
         """Undamped group velocity d omega / d k by Hellmann-Feynman (real k)."""
@@ -402,7 +410,10 @@ def _eigen_pairs(ops, omega, method, n_waves, c, inverted=True):
             lam, x = _lambdas_dense(ops, omega, c)
     k = np.sqrt(lam.astype(complex))
     k = np.where(k.imag > 0, -k, k)
-    x = np.asarray(x, dtype=complex)
+    # rows contiguous for the sparse products with the shapes (a copy of the n_waves columns;
+    # the dense solve's N columns stay as they are)
+    x = np.asarray(x, dtype=complex) if method == "dense" else \
+        np.ascontiguousarray(x, dtype=complex)
     x[: ops.na] *= 1j * k  # back-substitute u_a = i k w
     undamped = np.abs(k.imag) <= 1e-6 * np.abs(k)  # eig round-off is ~1e-8
     if undamped.any():
@@ -411,7 +422,7 @@ def _eigen_pairs(ops, omega, method, n_waves, c, inverted=True):
         k[undamped] = np.where(forward, kr, -kr)
         x[: ops.na, undamped] *= np.where(forward, 1.0, -1.0)  # u_a = i k w, k -> -k
     for j in _chunks(len(k)):  # column blocks: whole-matrix temporaries cost N^2 each
-        x[:, j] /= np.linalg.norm(x[:, j], axis=0)
+        x[:, j] /= column_norms(x[:, j])
     return k, x
 
 
@@ -427,6 +438,12 @@ def _ranked(ops, omega, c, k, x, keep=slice(None)) -> Waves:
         denom[j] = ops.dA(k[j], x[:, idx[j]])
     phi = x[np.ix_(np.argsort(ops.order), idx)]  # sorted columns, rows as reduced DOFs
     return Waves(family=ops.family, omega=omega, k=k, phi=phi, denom=denom)
+
+
+def column_norms(x: np.ndarray) -> np.ndarray:
+    """Euclidean norm of each column of a complex array, without (N, n) temporaries."""
+    re, im = x.real, x.imag
+    return np.sqrt(np.einsum("ij,ij->j", re, re) + np.einsum("ij,ij->j", im, im))
 
 
 def _chunks(n: int, size: int = 256):
