@@ -244,7 +244,8 @@ def fit_base(data: DiagnosisData, model: str, spec0: TrackSpec, ev: Evaluator, *
              n_starts, workers, cache, seed, profile_final,
              discrepancy=DISCREPANCY, reference=None) -> tuple[Search, object]:
     """Step 1: railfem.identify.fit on the first record's point mobility and decay rate (a
-    start), then the base refit on all records, its rail loss factor profiled (beam
+    start, scaled by noise plus the same ``discrepancy`` as ``railfem fit``: a WFE base
+    keeps its rail loss factor), then the base refit on all records, its rail loss factor profiled (beam
     models), its residuals scaled by noise plus the model-form ``discrepancy``
     (railfem.diagnosis.problem.noise_scale). Returns the Search and the identify
     FitResult. With a ``reference`` (railfem.diagnosis.reference.BaseReference) the base
@@ -265,7 +266,7 @@ def fit_base(data: DiagnosisData, model: str, spec0: TrackSpec, ev: Evaluator, *
                       bounds={"eta_r": ETA_R_RANGE}, n_starts=n_starts, workers=workers,
                       cache=cache, profiles=(), seed=seed,
                       slow_nodes=3 if beam else None, slow_refine=2 if beam else None,
-                      discrepancy=None)  # a start: the base refit below carries it
+                      discrepancy=discrepancy)  # as `railfem fit`: its rail loss is kept
     spec_b = spec0.replace(eta_r=fr.spec.rail.eta)
     x0 = np.array([math.log10(getattr(fr.spec.support, n)) for n in BASE])
     parallel.prefetch(ev, workers, parallel.base_kernels(ev, data, spec_b, x0, discrepancy,

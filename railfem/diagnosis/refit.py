@@ -442,9 +442,7 @@ def _analyse(problem: core.Problem, box, v, J, r, clusters, unfitted: bool = Tru
     (Problem.unfitted_jacobian)."""
     N = problem.unfitted_jacobian(v[:len(problem.box.parameters)]) if unfitted else None
     Nd = discrepancy_terms(problem, len(r) - len(v))  # the model-form discrepancy as well
-    out = uncertainty.analyse(box, v, J, r, clusters=clusters,
-                              nuisance=N if Nd is None else np.hstack([x for x in (N, Nd)
-                                                                       if x is not None]))
+    out = uncertainty.analyse(box, v, J, r, clusters=clusters, nuisance=N, discrepancy=Nd)
     out["unfitted_terms"] = 0 if N is None else int(N.shape[1])
     out["discrepancy_terms"] = 0 if Nd is None else int(Nd.shape[1])
     return out

@@ -443,7 +443,7 @@ def analyse(problem: Problem, x, J, r, slow, slow_profile, todo, profile_points,
     noise clusters and the variants' random terms as in the diagnosis."""
     space = problem.box
     disc = problem.discrepancy_columns()
-    extra = {} if disc is None else {"clusters": problem.clusters(), "nuisance": disc}
+    extra = {} if disc is None else {"clusters": problem.clusters(), "discrepancy": disc}
     analysis0 = uncertainty.analyse(space, x, J, r, **extra)
     prof = {}
     if todo and profile_points > 1:

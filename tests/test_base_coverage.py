@@ -1,0 +1,131 @@
+"""The base parameters' 95 % intervals (kp, eta_p, kb, eta_b, eta_r) hold the truth on data
+from a WFE model of another form (benchmarks.blind generators, form='cross': a
+straight-sided 7.5 mm mesh, 8 springs at the foot nodes), the truth generators.TRUTH never
+given to the code under test.
+
+Two causes were found (benchmarks/results/results_base_coverage.md):
+
+* the diagnosis's start fit (railfem.identify.fit on the first record) ran without the
+  model-form discrepancy, so its rail loss factor, which a WFE base keeps, followed the
+  cut-on bands the other form misplaces (0.034 decades low on every clean cross seed) and
+  the other base parameters were estimated beside it (eta_b +0.6 %, out of its interval);
+* the discrepancy's share of a parameter's variance was added to the model-based noise
+  variance only, and the cluster-robust one replaced both where it was larger: the rail
+  loss factor kept the noise's share alone.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from benchmarks.blind import generators as g
+
+BASE = ("kp", "eta_p", "kb", "eta_b", "eta_r")
+MODEL = "wfe-discrete"
+#: every second ninth-octave line 50 Hz - 5 kHz, every third position: the data of the
+#: cross-model support tests' small runs (tests/test_diagnosis_cross_support.py)
+SMALL_F = g.frequencies()[::2]
+pytestmark = pytest.mark.xdist_group("cross-model diagnosis")
+
+
+def _robust(J, r, clusters):
+    """The cluster-robust (sandwich) covariance, written out here."""
+    A = np.linalg.inv(J.T @ J)
+    G = clusters.max() + 1
+    S = np.array([J[clusters == k].T @ r[clusters == k] for k in range(G)])
+    return A @ (S.T @ S * G / (G - 1)) @ A
+
+
+def test_the_discrepancy_adds_to_the_cluster_robust_noise_variance():
+    """Noise shared within clusters makes the cluster-robust variance the larger one; the
+    discrepancy's variance (the estimate's shift under the variants, G G') is then added
+    to it, not to the smaller model-based one (where the robust one swallowed it)."""
+    from railfem.identify import uncertainty
+    from railfem.identify.problem import Box
+    from railfem.params import Parameter
+
+    rng = np.random.default_rng(3)
+    n, k = 240, 40
+    clusters = np.repeat(np.arange(k), n // k)
+    J = np.column_stack([np.ones(n), np.linspace(-1, 1, n)])
+    r = rng.standard_normal(k)[clusters] + 0.2 * rng.standard_normal(n)  # shared noise
+    r -= J @ np.linalg.lstsq(J, r, rcond=None)[0]  # the residual at the optimum
+    Nd = 0.05 * np.column_stack([np.sin(np.arange(n) / 7.0), np.cos(np.arange(n) / 11.0)])
+    box = Box([Parameter(name=f"p{i}", unit="-", log=False, lower=-10.0, upper=10.0)
+               for i in range(2)])
+    out = uncertainty.analyse(box, np.zeros(2), J, r, clusters=clusters, discrepancy=Nd)
+    model = np.diag(np.linalg.inv(J.T @ J)) * (r @ r) / (n - 2)
+    robust = np.diag(_robust(J, r, clusters))
+    G = np.linalg.lstsq(J, Nd, rcond=None)[0]
+    shift = np.sum(G ** 2, axis=1)
+    assert np.all(robust > 2 * model)  # the case: noise shared within the clusters
+    sd = np.array([p["std_vector"] for p in out["parameters"]])
+    np.testing.assert_allclose(sd ** 2, robust + shift, rtol=1e-9)
+    # a linear combination's SD carries it as well
+    assert uncertainty.combination_std(out, [1.0, 0.0]) ** 2 == pytest.approx(
+        robust[0] + shift[0], rel=1e-9)
+
+
+def test_the_diagnosis_start_fit_carries_the_model_form_discrepancy():
+    """The start of the diagnosis's base is ``railfem fit`` with the same discrepancy (its
+    rail loss factor is what a WFE base keeps); with discrepancy=None neither has one."""
+    from railfem.diagnosis import diagnose
+
+    f = g.frequencies(high=2000.0)[::4]
+    data = g.dataset("none", 0, f=f, model="timoshenko-discrete", form="cross")
+    d = diagnose(data, model="timoshenko-discrete", effects=(), pairs=False, n_starts=1,
+                 profile_final=False)
+    assert d.base_fit.discrepancy["method"] == "ensemble"
+    assert d.base_fit.discrepancy["variants"] == list(d.base.problem.scale.discrepancy
+                                                       .variants)
+    d0 = diagnose(data, model="timoshenko-discrete", effects=(), pairs=False, n_starts=1,
+                  profile_final=False, discrepancy=None)
+    assert d0.base_fit.discrepancy["method"] == "none"
+
+
+def _base(seed: int, form: str = "cross") -> dict:
+    """{name: parameter} of the WFE base of a diagnosis with no candidates on the clean
+    data of ``seed`` (SMALL_F, every third position)."""
+    from railfem.diagnosis import diagnose
+
+    data = g.thinned(g.dataset("none", seed, f=SMALL_F, model=MODEL, form=form, cache=True), 3)
+    d = diagnose(data, model=MODEL, effects=(), pairs=False, n_starts=2, cache=True)
+    return {p["name"]: p for p in d.base.parameters() if p["name"] in BASE}
+
+
+def _inside(p, name) -> bool:
+    return p["ci95"][0] <= g.TRUTH[name] <= p["ci95"][1]
+
+
+def _half_width(p) -> float:
+    return math.log10(p["ci95"][1] / p["ci95"][0]) / 2
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 4])
+def test_cross_model_base_intervals_hold_the_truth(seed):
+    """Seeds where the pad loss factor's interval excluded the truth (estimate 0.11 and
+    0.14 decades high, half-widths 0.098 and 0.085: the start's rail loss factor 0.061 and
+    0.088 decades low) now hold every base parameter's truth."""
+    base = _base(seed)
+    assert all(_inside(base[n], n) for n in BASE), base
+    assert _half_width(base["eta_r"]) < 0.1, base["eta_r"]
+
+
+@pytest.mark.slow
+def test_cross_model_base_coverage_over_ten_seeds():
+    """The full clean cross-model data (29 positions, 50 Hz - 5 kHz, 5 % noise), seeds
+    0-9: each base parameter inside its 95 % interval in at least 9 of 10 (measured: kp,
+    eta_p, kb, eta_r 10/10, eta_b 9/10; benchmarks/results/results_base_coverage.md)."""
+    from railfem.diagnosis import diagnose
+
+    hits = dict.fromkeys(BASE, 0)
+    for seed in range(10):
+        data = g.dataset("none", seed, model=MODEL, form="cross", cache=True)
+        d = diagnose(data, model=MODEL, effects=(), pairs=False, n_starts=2, cache=True)
+        for p in d.base.parameters():
+            if p["name"] in BASE:
+                hits[p["name"]] += _inside(p, p["name"])
+    assert all(v >= 9 for v in hits.values()), hits
