@@ -278,12 +278,14 @@ def test_track_job_lateral_outputs(tmp_path):
     """Issue 15: with supports acting laterally the track job writes the lateral EN 15461
     decay rate next to the vertical ones, the lateral transfer mobilities it comes from
     (recomputing the decay rate from that file gives the column back) and a run.json block;
-    without 'y' it writes none of them."""
+    without 'y' it writes none of them. On the 20 mm mesh: the outputs, not the mesh, are
+    tested here (7.7 -> 5.6 s of CPU)."""
     from railfem.io.frf_csv import read_frf_csv
     from railfem.standards import en15461
 
     code, out = _track(tmp_path, "lat", "--preset", "site", "--model", "wfe-periodic",
-                       "--support-directions", "zy", "--f-low", "200", "--f-high", "500")
+                       "--support-directions", "zy", "--f-low", "200", "--f-high", "500",
+                       "--h", "20")
     assert code == 0
     rows = read_csv(out / "decay_rate.csv")
     lat = np.array([float(r["head_lateral_db_per_m"]) for r in rows])
@@ -297,6 +299,6 @@ def test_track_job_lateral_outputs(tmp_path):
     assert run["lateral"]["channel"] == "head_lateral"
     assert (out / "decay_rate_lateral.png").exists()
     code, plain = _track(tmp_path, "vert", "--preset", "site", "--model", "wfe-periodic",
-                         "--f-low", "200", "--f-high", "500")
+                         "--f-low", "200", "--f-high", "500", "--h", "20")
     assert "head_lateral_db_per_m" not in read_csv(plain / "decay_rate.csv")[0]
     assert not (plain / "transfer_mobility_lateral.csv").exists()
