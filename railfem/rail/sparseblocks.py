@@ -1,6 +1,7 @@
 """Sparse block helpers of the wave solver (railfem.rail.waves): the (axial, in-plane) blocks
-of a section matrix, one LU per diagonal block of a block upper triangular matrix, and a real
-sparse matrix times a complex block of columns."""
+of a section matrix, one LU per diagonal block of a block upper triangular matrix (orderings
+found once, blocks laid out in them), a real sparse matrix times a complex block of columns,
+and column norms."""
 from __future__ import annotations
 
 import numpy as np
@@ -89,6 +90,22 @@ def permuted_pattern(positions: np.ndarray, P: sp.csc_matrix, q: np.ndarray,
     Xq = (Xq.T if transpose else Xq).tocsc()
     Xq.sort_indices()
     return Xq.data.astype(np.int64) - 1, Xq
+
+
+def ordered_blocks(blocks, Zap, orders):
+    """(aa, pp, Zap, orders) for ``block_solver(..., orders, transposed=True)``: the
+    (positions, pattern) of each diagonal block's transpose (``blocks`` as from
+    ``diagonal_blocks``) and Zap, rows and columns in the orders (qa, qp)."""
+    (iaa, Paa), (ipp, Ppp) = blocks
+    qa, qp = orders
+    return (permuted_pattern(iaa, Paa, qa, transpose=True),
+            permuted_pattern(ipp, Ppp, qp, transpose=True), Zap[qa][:, qp].tocsr(), orders)
+
+
+def column_norms(x: np.ndarray) -> np.ndarray:
+    """Euclidean norm of each column of a complex array, without (N, n) temporaries."""
+    re, im = x.real, x.imag
+    return np.sqrt(np.einsum("ij,ij->j", re, re) + np.einsum("ij,ij->j", im, im))
 
 
 def block_sum(na: int, *parts) -> sp.csc_matrix:

@@ -41,8 +41,8 @@ import scipy.linalg as sl
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
-from .sparseblocks import (block_solver, block_sum, diagonal_blocks, on_pattern,
-                           permuted_pattern, real_times)
+from .sparseblocks import (block_solver, block_sum, column_norms, diagonal_blocks, on_pattern,
+                           ordered_blocks, real_times)
 from .waveguide import Waveguide, reduced
 
 log = logging.getLogger(__name__)
@@ -149,10 +149,7 @@ class FamilyOperators:
         if self._ordered is None:
             (iaa, Paa), (ipp, Ppp) = self.blocks
             solve = block_solver(block(iaa, Paa), block(ipp, Ppp), self.Z_ap, self.na)
-            qa, qp = solve.orders
-            self._ordered = (permuted_pattern(iaa, Paa, qa, transpose=True),
-                             permuted_pattern(ipp, Ppp, qp, transpose=True),
-                             self.Z_ap[qa][:, qp].tocsr(), solve.orders)
+            self._ordered = ordered_blocks(self.blocks, self.Z_ap, solve.orders)
             return solve
         aa, pp, Zap, orders = self._ordered
         return block_solver(block(*aa), block(*pp), Zap, self.na, orders, transposed=True)
@@ -438,12 +435,6 @@ def _ranked(ops, omega, c, k, x, keep=slice(None)) -> Waves:
         denom[j] = ops.dA(k[j], x[:, idx[j]])
     phi = x[np.ix_(np.argsort(ops.order), idx)]  # sorted columns, rows as reduced DOFs
     return Waves(family=ops.family, omega=omega, k=k, phi=phi, denom=denom)
-
-
-def column_norms(x: np.ndarray) -> np.ndarray:
-    """Euclidean norm of each column of a complex array, without (N, n) temporaries."""
-    re, im = x.real, x.imag
-    return np.sqrt(np.einsum("ij,ij->j", re, re) + np.einsum("ij,ij->j", im, im))
 
 
 def _chunks(n: int, size: int = 256):
