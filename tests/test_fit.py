@@ -161,7 +161,8 @@ def test_decay_rate_alone_flags_what_it_cannot_determine():
     ballast stiffness and damping (METHOD.md section 7: the ballast damping is the classic
     case). The coverage of the intervals of what it does call identifiable is measured,
     not asserted, by scripts/fit_studies.py (decay rate alone: below the nominal 95 %, see
-    docs/identification.md)."""
+    docs/identification.md). Two starts: the same minima as four on these six seeds
+    (costs equal to 1e-6, the same identifiability), at 40 % of the CPU."""
     spec = rf.preset("site", model="timoshenko-discrete").replace(**TRUTH)
     centres = iec61260.third_octave_bands(100, 5000).nominal
     d = models.decay_rate(spec, iec61260.ninth_octave_grid(100, 5000), cache=False).decay_rate
@@ -170,7 +171,7 @@ def test_decay_rate_alone_flags_what_it_cannot_determine():
         rng = np.random.default_rng(seed)
         meas = DecayRateMeasurement(frequency=centres,
                                     decay_rate=d * (1 + 0.05 * rng.standard_normal(d.size)))
-        res = fit(meas, "timoshenko-discrete", parameters=FAST, base=base, n_starts=4,
+        res = fit(meas, "timoshenko-discrete", parameters=FAST, base=base, n_starts=2,
                   seed=seed, workers=1, profiles=())
         status = res.identifiable()
         assert status["eta_b"] != "yes" and status["kb"] != "yes", res.parameters
