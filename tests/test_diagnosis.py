@@ -505,9 +505,9 @@ def test_diagnose_job_refuses_mixed_or_several_data(tmp_path):
 
 
 def test_diagnose_cli_writes_report(tmp_path):
-    """The command writes diagnosis.json (strict JSON), the report and its figures; one
-    start (the search is test_small_blind_diagnosis's: measured, the same diagnosis as
-    with two starts, dBIC -1455.7, at 60 % of the CPU)."""
+    """The command writes diagnosis.json (strict JSON), the report and its figures. One
+    worker process (the parallel screening is test_diagnosis_parallel's): measured, the
+    same diagnosis (dBIC -1455.7) at half the CPU of the default two."""
     from railfem.io import write_dataset
 
     meas = g.dataset("pad_frequency", 0, f=SMALL_F)[0]
@@ -516,7 +516,8 @@ def test_diagnose_cli_writes_report(tmp_path):
     out = tmp_path / "out"
     r = subprocess.run([sys.executable, "-m", "railfem.cli", "diagnose", str(src),
                         "--model", "timoshenko-discrete", "--effects",
-                        "pad_frequency,noise_floor", "--starts", "1", "--out", str(out)],
+                        "pad_frequency,noise_floor", "--starts", "2", "--workers", "1",
+                        "--out", str(out)],
                        capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, r.stderr
     text = (out / "diagnosis.json").read_text()
@@ -537,8 +538,8 @@ def test_diagnose_cli_on_passby_recordings(tmp_path):
     by the pass-by estimator and diagnosed: the report is written, its records are the
     pass-bys at the foot sensor; clean data (no effect) -> no effect claimed. One candidate
     without a kernel grid (foot_damping: ~7 s of CPU; rail_damper's joint spread x rail-loss
-    profile took ~30 s), one start (measured: the two-start diagnosis to 1e-8, at 70 % of
-    the CPU)."""
+    profile took ~30 s); one worker process (measured: the same diagnosis as with the
+    default two, at 60 % of the CPU)."""
     from railfem.io.recording import write_recording
 
     paths = []
@@ -547,7 +548,8 @@ def test_diagnose_cli_on_passby_recordings(tmp_path):
     out = tmp_path / "out"
     r = subprocess.run([sys.executable, "-m", "railfem.cli", "diagnose", *map(str, paths),
                         "--model", "timoshenko-discrete", "--effects", "foot_damping",
-                        "--starts", "1", "--f-low", "200", "--f-high", "2500",
+                        "--starts", "2", "--workers", "1", "--f-low", "200",
+                        "--f-high", "2500",
                         "--out", str(out)], capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, r.stderr
     s = json.loads((out / "passby" / "diagnosis.json").read_text())

@@ -192,7 +192,8 @@ def test_reference_files_are_read_as_the_job_needs_them(tmp_path):
 
 def test_diagnose_cli_against_a_reference_section(tmp_path):
     """railfem diagnose DAMPED --reference UNDAMPED (two hammer datasets): rail_damper named
-    against the reference, which diagnosis.json and run.json hold."""
+    against the reference, which diagnosis.json and run.json hold. One worker process (the
+    parallel screening is test_diagnosis_parallel's)."""
     from railfem.io import write_dataset
 
     write_dataset(tmp_path / "damped", damped(BAND, 11)[0])
@@ -200,7 +201,7 @@ def test_diagnose_cli_against_a_reference_section(tmp_path):
     out = tmp_path / "out"
     r = subprocess.run([sys.executable, "-m", "railfem.cli", "diagnose", str(tmp_path / "damped"),
                         "--reference", str(tmp_path / "undamped"), "--model", MODEL,
-                        "--effects", "rail_damper,foot_damping", "--starts", "2",
+                        "--effects", "rail_damper,foot_damping", "--starts", "2", "--workers", "1",
                         "--out", str(out)], capture_output=True, text=True, timeout=900)
     assert r.returncode == 0, r.stderr
     s = json.loads((out / "diagnosis.json").read_text())
