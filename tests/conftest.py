@@ -13,6 +13,13 @@
 
 ``setdefault``: a thread count given on the command line always wins.
 
+* Bytecode is written (``sys.dont_write_bytecode = False`` and ``PYTHONDONTWRITEBYTECODE``
+  dropped from the environment that the workers and subprocesses inherit), whatever the
+  shell says: otherwise every pytest worker compiles railfem and rewrites the test
+  modules at collection (~3 s of CPU each) and every CLI, example or doc command a test
+  starts compiles railfem again (~0.1 s each). The files go to the git-ignored
+  ``__pycache__`` folders, as on a machine that does not set the variable.
+
 Under pytest-xdist the tests of a module that share a module-scoped fixture of that module
 run on one worker (``pytest_collection_modifyitems``: one xdist_group per module), so the
 fixture is built once per run, not once per worker.
@@ -23,8 +30,11 @@ the wall times of ``--durations`` measure the load as much as the tests.
 """
 import os
 import shutil
+import sys
 import tempfile
 
+sys.dont_write_bytecode = False
+os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 if not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
