@@ -55,3 +55,26 @@ def test_model_decay_rate_of_a_non_finite_model_follows_en15461(target):
     Y[:, 0, 3] = np.nan  # a model position without a value is left out of the sum
     Y[:4, 1, 0] = 0.0  # no point power in the first band: no decay rate
     np.testing.assert_array_equal(model_decay_rate(target, Y), reference(target, Y))
+
+
+def test_model_decay_rate_on_a_grid_with_empty_bands(target, caplog):
+    """A narrow-band grid coarser than the bands (a cheap diagnosis grid): no decay rate in
+    a band without points, the others as EN 15461 gives them, and band_average's warning
+    once per target, not once per evaluation (a fit evaluates it thousands of times)."""
+    f = F[::4]
+    t = replace(target, frequency=f, frf_weight=np.zeros(len(f)))
+    empty = np.bincount(iec61260.band_index(f, t.bands) + 1, minlength=len(t.bands) + 1)[1:] == 0
+    assert 0 < empty.sum() < len(t.bands)
+    rng = np.random.default_rng(7)
+    shape = (len(f), 2, len(POS))
+    Ys = [(rng.standard_normal(shape) + 1j * rng.standard_normal(shape))
+          * np.exp(-rng.uniform(0.0, 2.0, len(POS))) for _ in range(20)]
+    wants = [reference(t, Y) for Y in Ys]
+    caplog.clear()
+    with caplog.at_level("WARNING", logger="railfem.standards.iec61260"):
+        gots = [model_decay_rate(t, Y) for Y in Ys]
+    for got, want in zip(gots, wants):
+        np.testing.assert_array_equal(got, want)
+        assert np.isnan(got[empty]).all() and np.isfinite(got[~empty]).any()
+    noted = [r for r in caplog.records if "no narrow-band points" in r.getMessage()]
+    assert len(noted) == 1

@@ -140,19 +140,25 @@ def model_decay_rate(target: Target, Y: np.ndarray) -> np.ndarray:
 class _DecayPlan:
     """What the model decay rate of a target needs besides the model (computed once per
     target): the narrow-band points of each band in frequency order, and the (band,
-    sensor) rows grouped by the positions the data used, with their interval weights."""
+    sensor) rows grouped by the positions the data used, with their interval weights.
+    A band without narrow-band points has no power (NaN), hence no decay rate, as in
+    band_average; its warning is logged once, when the plan is made."""
 
     def __init__(self, target: Target):
         member = iec61260.band_index(target.frequency, target.bands)
         members = [np.flatnonzero(member == k) for k in range(len(target.bands))]
         x = np.asarray(target.nominal_positions, dtype=float)
         offset = float(target.tdr_point_offset)
-        # an empty band (band_average warns) or positions en15461 refuses: the slow path
-        self.ok = bool(all(len(m) for m in members) and x.ndim == 1 and x.size >= 2
+        self.full = np.array([len(m) > 0 for m in members])
+        # no band with points, or positions en15461 refuses: the slow path (it raises)
+        self.ok = bool(self.full.any() and x.ndim == 1 and x.size >= 2
                        and np.all(np.isfinite(x)) and x[0] == 0.0
                        and (offset == 0.0 or (np.isfinite(offset) and 0.0 <= offset < x[1])))
         if not self.ok:
             return
+        if not self.full.all():  # band_average's warning, once per target
+            iec61260.band_average(target.frequency, np.zeros(len(target.frequency)),
+                                  target.bands)
         x_w = x.copy()
         x_w[0] = offset if offset != 0.0 else x[0]
         # the j-th point of every band that has one: band mean = ((p0 + p1) + p2) / n,
@@ -160,7 +166,7 @@ class _DecayPlan:
         self.steps = [(np.array([k for k, m in enumerate(members) if len(m) > j]),
                        np.array([m[j] for m in members if len(m) > j]))
                       for j in range(max(len(m) for m in members))]
-        self.count = np.array([len(m) for m in members], dtype=float)[:, None, None]
+        self.count = np.array([max(len(m), 1) for m in members], dtype=float)[:, None, None]
         n_b, n_o, n_p = len(members), len(target.outputs), x.size
         used = (np.ones((n_b, n_o, n_p), bool) if target.tdr_used is None
                 else np.asarray(target.tdr_used, dtype=bool))
@@ -185,7 +191,8 @@ class _DecayPlan:
         """iec61260.band_average(f, Y, bands) ** 2 to the last bit, Y (nf, o, pos): (b, o,
         pos)."""
         power = np.abs(Y) ** 2
-        acc = power[self.steps[0][1]].copy()
+        acc = np.full((len(self.full),) + power.shape[1:], np.nan)  # an empty band: NaN
+        acc[self.steps[0][0]] = power[self.steps[0][1]]
         for k, i in self.steps[1:]:
             acc[k] += power[i]
         return np.sqrt(acc / self.count) ** 2
@@ -198,15 +205,16 @@ def _fast_decay_rate(target: Target, Y: np.ndarray) -> np.ndarray | None:
     """model_decay_rate without a Python loop over bands and sensors (a fit evaluates it
     for every Jacobian column): the same operations in the same order as
     iec61260.band_average and en15461.decay_rate_from_band_power (equal to the last bit);
-    None where that path would take a branch this one does not (an empty band, a model
-    band power that is not finite or not positive): the caller then takes it."""
+    None where that path would take a branch this one does not (a model band power that
+    is not finite or not positive in a band with points): the caller then takes it."""
     plan = _DECAY_PLANS.get(target)
     if plan is None:
         plan = _DECAY_PLANS[target] = _DecayPlan(target)
     if not plan.ok or Y.ndim != 3:
         return None
     power = plan.band_power(Y)
-    if not (np.all(np.isfinite(power)) and np.all(power[:, :, 0] > 0.0)):
+    full = power[plan.full]
+    if not (np.all(np.isfinite(full)) and np.all(full[:, :, 0] > 0.0)):
         return None
     n_b, n_o, n_p = power.shape
     P = power.reshape(n_b * n_o, n_p)
