@@ -149,12 +149,18 @@ def head_side(guide: waveguide.Waveguide, depth: float = HEAD_SIDE_DEPTH) -> tup
     return float(y.max()), z
 
 
-@lru_cache(maxsize=4)
 def rail_mesh(rail: RailSpec):
-    """The mesh file if given, else the shipped mesh of (profile, h) or a new Gmsh mesh."""
-    if rail.mesh_file is not None:
-        return meshing.load_mesh(rail.mesh_file)
-    return meshing.get_mesh(profiles.get_profile(rail.profile), rail.h)
+    """The mesh file if given, else the shipped mesh of (profile, h) or a new Gmsh mesh
+    (memoised by those alone: the material and loss factor do not change the mesh)."""
+    return section_mesh(rail.profile, rail.h, rail.mesh_file)
+
+
+@lru_cache(maxsize=4)
+def section_mesh(profile: str, h: float, mesh_file: str | None = None):
+    """rail_mesh of a RailSpec with these ``profile``, ``h`` and ``mesh_file``."""
+    if mesh_file is not None:
+        return meshing.load_mesh(mesh_file)
+    return meshing.get_mesh(profiles.get_profile(profile), h)
 
 
 @lru_cache(maxsize=4)
@@ -214,7 +220,19 @@ def beam_section(spec_rail: RailSpec) -> beams.BeamSection:
     the nominal 60E1 catalogue values, with the rail's material (METHOD.md section 3)."""
     if spec_rail.beam_constants == "catalogue":
         return beams.BeamSection.catalogue(spec_rail.material())
-    return beams.BeamSection.from_mesh(rail_mesh(spec_rail), spec_rail.material())
+    area, second_moment, kappa = mesh_beam_constants(spec_rail.profile, spec_rail.h,
+                                                     spec_rail.mesh_file)
+    return beams.BeamSection.from_material(spec_rail.material(), area=area, I=second_moment,
+                                           kappa=kappa)
+
+
+@lru_cache(maxsize=8)
+def mesh_beam_constants(profile: str, h: float, mesh_file: str | None = None) -> tuple:
+    """(A, I, kappa) of the vertical bending of the section mesh (BeamSection.from_mesh),
+    memoised by the mesh alone: a profile over the rail loss factor (a new RailSpec each)
+    does not solve the section's shear problem again."""
+    s = beams.BeamSection.from_mesh(section_mesh(profile, h, mesh_file))
+    return s.area, s.I, s.kappa
 
 
 # ----------------------------------------------------------------------------- the door
