@@ -8,7 +8,8 @@ whether the candidate was kept, and the grip's variance part by part (noise: the
 model-based one; robust: the cluster-robust one; discrepancy: the model-form ensemble's
 terms, with each variant's shift of the grip). JSON lines, then a table.
 
-    OPENBLAS_NUM_THREADS=1 RAILFEM_CACHE=/tmp/cache nice -n 5 python -m benchmarks.bench_roll_coverage OUT.jsonl 0-9
+    export OPENBLAS_NUM_THREADS=1 RAILFEM_CACHE=/tmp/cache
+    nice -n 5 python -m benchmarks.bench_roll_coverage OUT.jsonl 0-9
     ... OUT.jsonl 0 --level 0 [--form own] [--bands small]     (clean data)
     python -m benchmarks.bench_roll_coverage --table OUT.jsonl
 
