@@ -207,19 +207,7 @@ def test_blind_roll_restraint(case, seed, bands, profile):
     and it was refused). The base's rail seat holds the foot's roll by
     the pad (SupportParameters.seat 'rigid'), so a grip of the pad's own size
     ('roll_restraint', 1e6 N m/rad, -m slow) is seen but need not be kept, as on the
-    SBB lateral rows.
-
-    Known miss, marked xfail where it happens: on the wider bands (LATERAL_BANDS,
-    100-630 Hz) the pad-sized grip's interval does not carry the whole model-form error.
-    On clean data the grip is 0.645 (truth 0.5), its interval 0.513-0.778 (k_roll
-    1.05e6-3.5e6): +0.09 from the other form's mesh and node springs (two of the
-    discrepancy ensemble's variants at once; its share, t(3) x RMS of the variants'
-    shifts, is 0.13) and +0.05 from the grip's loss factor, fixed at 0.1 against the
-    truth's 0.3 (no share covers it); with noise the truth was outside in 3 of 10 seeds
-    (2, 5, 8), so this is not a 1-in-20 miss and a coverage criterion would not hold
-    either (benchmarks/results/results_roll_restraint.md: the shares a fix needs). Every
-    other assertion still applies to these cases; the interval assertion applies
-    unchanged to every other case (SMALL_BANDS: the clean interval holds the truth)."""
+    SBB lateral rows."""
     d = blind(case, seed, bands, profile)
     if case == "none":
         assert d.chosen is None, d.statement
@@ -233,9 +221,4 @@ def test_blind_roll_restraint(case, seed, bands, profile):
     fitted = d.chosen.parameters() if d.chosen is not None else best["parameters"]
     par = {p["name"].split(".")[-1]: p for p in fitted}
     lo, hi = par["k_roll"]["ci95"]
-    if case == "roll_restraint" and bands == g.LATERAL_BANDS and \
-            not lo <= truth["k_roll"] <= hi:
-        pytest.xfail("known: the grip's interval lacks the fixed loss factor's share and "
-                     "the other form's combined discretisation shift "
-                     f"(results_roll_restraint.md): {par['k_roll']['ci95']}")
     assert lo <= truth["k_roll"] <= hi, par["k_roll"]
