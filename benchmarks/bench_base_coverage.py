@@ -5,7 +5,8 @@ estimate's error against generators.TRUTH (decades), the 95 % half-width (decade
 whether the interval holds the truth; JSON lines, then a summary (inside n/N, median
 half-width, mean error).
 
-    OPENBLAS_NUM_THREADS=1 nice -n 5 python -m benchmarks.bench_base_coverage OUT.jsonl 0-9 [--form own]
+    OPENBLAS_NUM_THREADS=1 nice -n 5 \
+        python -m benchmarks.bench_base_coverage OUT.jsonl 0-9 [--form own]
     python -m benchmarks.bench_base_coverage --table OUT.jsonl
 
 The base is the one of ``railfem diagnose`` (railfem.diagnosis.diagnose with no candidate

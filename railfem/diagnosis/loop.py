@@ -245,8 +245,8 @@ def fit_base(data: DiagnosisData, model: str, spec0: TrackSpec, ev: Evaluator, *
              discrepancy=DISCREPANCY, reference=None) -> tuple[Search, object]:
     """Step 1: railfem.identify.fit on the first record's point mobility and decay rate (a
     start, scaled by noise plus the same ``discrepancy`` as ``railfem fit``: a WFE base
-    keeps its rail loss factor), then the base refit on all records, its rail loss factor profiled (beam
-    models), its residuals scaled by noise plus the model-form ``discrepancy``
+    keeps its rail loss factor), then the base refit on all records, its rail loss factor
+    profiled (beam models), its residuals scaled by noise plus the model-form ``discrepancy``
     (railfem.diagnosis.problem.noise_scale). Returns the Search and the identify
     FitResult. With a ``reference`` (railfem.diagnosis.reference.BaseReference) the base
     starts at the reference's values and stays inside its bounds (no start fit: the
