@@ -60,7 +60,7 @@ from railfem.diagnosis import residual as resid
 from railfem.diagnosis.data import LATERAL_ONLY, DiagnosisData, prepare
 from railfem.diagnosis.evaluate import Evaluator, lateral_spec
 from railfem.diagnosis.gates import final_gate, held_gate, passes, plausibility
-from railfem.diagnosis.problem import BASE, DISCREPANCY, Problem, noise_scale
+from railfem.diagnosis.problem import BASE, DISCREPANCY, Problem, model_scale, noise_scale
 from railfem.diagnosis.rail_loss import (ETA_R_LATTICE, eta_r_interval, joint_profile,
                                          profile_eta_r)
 from railfem.diagnosis.refit import REFINE_STEPS, Outcome, refit
@@ -481,11 +481,12 @@ def final_refit(s: Search, chosen: Outcome) -> Outcome:
         parallel.prefetch(s.ev, s.workers, [parallel.evaluation(
             s.ev, s.data, s.spec.replace(eta_r=10 ** round(e0 + d, 6)), chosen.effects,
             chosen.grid, chosen.x) for d in (-ETA_R_LATTICE, ETA_R_LATTICE)])
-    start = refit(s.data, s.ev, spec_c, chosen.effects, s.x_base, s.scale,
+    scale = model_scale(chosen.problem, chosen.x)  # the chosen model's own variants
+    start = refit(s.data, s.ev, spec_c, chosen.effects, s.x_base, scale,
                   grid_values=grid_fix, refine=False, x_start=chosen.x, unfitted=False,
                   bounds=s.bounds)
     start.grid_profiles = chosen.grid_profiles
-    return profile_eta_r(s.data, s.ev, s.spec, chosen.effects, start, s.scale,
+    return profile_eta_r(s.data, s.ev, s.spec, chosen.effects, start, scale,
                          max_steps=s.eta_r_steps, bounds=s.bounds)
 
 
