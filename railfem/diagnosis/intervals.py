@@ -9,6 +9,7 @@ import math
 import numpy as np
 from scipy import stats
 
+from railfem.diagnosis.problem import MODEL_VARIANT
 from railfem.identify import uncertainty
 from railfem.identify.profiling import CHI2_95
 
@@ -62,9 +63,13 @@ def discrepancy_terms(problem, dof: int, level: float = 0.975):
     0.036 and 0.034: the other model differs in both at once). None without discrepancy."""
     N = problem.discrepancy_columns()
     disc = getattr(problem.scale, "discrepancy", None)
-    n_var = len(getattr(disc, "variants", ()) or ())
+    labels = tuple(getattr(disc, "variants", ()) or ())
+    n_var = len(labels)
     if N is None or not n_var or N.shape[1] != n_var:  # per-cell columns: as they are
         return N
+    # the variants evaluated on a chosen model as well (model_scale) are the same
+    # variants: Student's t over how many there are
+    n_var = len({v.removesuffix(MODEL_VARIANT) for v in labels})
     k = float(stats.t.ppf(level, n_var) / stats.t.ppf(level, max(int(dof), 1)))
     return N * max(k, 1.0)
 
