@@ -156,9 +156,7 @@ class _DecayPlan:
                        and (offset == 0.0 or (np.isfinite(offset) and 0.0 <= offset < x[1])))
         if not self.ok:
             return
-        if not self.full.all():  # band_average's warning, once per target
-            iec61260.band_average(target.frequency, np.zeros(len(target.frequency)),
-                                  target.bands)
+        iec61260.empty_bands(target.frequency, target.bands, member=member)  # its warning, once
         x_w = x.copy()
         x_w[0] = offset if offset != 0.0 else x[0]
         # the j-th point of every band that has one: band mean = ((p0 + p1) + p2) / n,

@@ -32,6 +32,7 @@ __all__ = [
     "nominal_centre",
     "third_octave_bands",
     "band_average",
+    "empty_bands",
     "ninth_octave_grid",
     "CLASS1_PASSBAND_MIN_DB",
     "CLASS1_PASSBAND_MAX_DB",
@@ -219,28 +220,38 @@ def band_average(
         )
     power = np.abs(values) ** 2
     out = np.empty((len(bands),) + values.shape[1:], dtype=float)
-    empty = []
     member = band_index(frequency, bands)
+    empty = empty_bands(frequency, bands, on_empty=on_empty, member=member)
     for k in range(len(bands)):
-        inside = member == k
-        if not inside.any():
+        if empty[k]:
             out[k] = np.nan
-            empty.append(float(bands.nominal[k]))
             continue
-        out[k] = np.sqrt(power[inside].mean(axis=0))
-    if empty:
+        out[k] = np.sqrt(power[member == k].mean(axis=0))
+    return out
+
+
+def empty_bands(frequency: np.ndarray, bands: ThirdOctaveBands, *, on_empty: str = "nan",
+                member: np.ndarray | None = None) -> np.ndarray:
+    """(n_bands,) True for each band without narrow-band points (band_average makes those
+    NaN), with band_average's warning (``on_empty="nan"``) or error (``"raise"``) if any;
+    ``member``: band_index(frequency, bands) if already at hand."""
+    frequency = np.asarray(frequency, dtype=float)
+    member = band_index(frequency, bands) if member is None else member
+    empty = ~np.isin(np.arange(len(bands)), member)
+    if empty.any():
         span = (
             f"{frequency.min():.4g} ... {frequency.max():.4g} Hz" if frequency.size else "empty"
         )
         msg = (
             f"band_average: no narrow-band points in the one-third-octave band(s) with "
-            f"nominal centre {empty} Hz (data span {span}); use a 1/9-octave grid covering "
-            "whole bands (ninth_octave_grid) or restrict the bands."
+            f"nominal centre {[float(c) for c in np.asarray(bands.nominal)[empty]]} Hz (data "
+            f"span {span}); use a 1/9-octave grid covering whole bands (ninth_octave_grid) "
+            "or restrict the bands."
         )
         if on_empty == "raise":
             raise ValueError(msg)
         log.warning(msg + " Those bands are NaN.")
-    return out
+    return empty
 
 
 # ----------------------------------------------------------------------------- filters
