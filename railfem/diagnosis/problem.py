@@ -11,7 +11,9 @@ absolute deviation of its first differences, at least 0.1 dB), so every model is
 the same footing; random effects add their prior rows. The scale carries the model-form
 discrepancy of the base at its fitted parameters (railfem.identify.discrepancy.ensemble;
 an entry's scale is sqrt(noise^2 + s_d^2) of its band), so bands the model cannot predict
-weigh less and the gates judge against noise plus discrepancy.
+weigh less and the gates judge against noise plus discrepancy. What an effect leaves
+unfitted (the support factors outside a random effect's window, the spec values it
+assumes) enters the intervals only, as random terms (EffectModel.unfitted_tangents).
 """
 from __future__ import annotations
 
@@ -36,6 +38,13 @@ MIN_SCALE = 0.1  # dB
 
 #: the label's suffix of a variant evaluated on a chosen model (model_scale)
 MODEL_VARIANT = " (chosen model)"
+
+#: decades either side of an effect's assumed value: its receptance tangent's central
+#: difference. The tangent is linearised in the receptance (Problem.unfitted_jacobian), so
+#: it must be local: near a resonance a step of 0.05 decades (a secant across it) put the
+#: residual's column 26 % from its derivative (tests/test_unfitted_spec.py), 0.001 puts
+#: it 1e-4 from it and stays far above the solvers' round-off
+ASSUMED_STEP = 1e-3
 
 #: the model-form discrepancy by default: 'ensemble' (railfem.identify.discrepancy) or None
 DISCREPANCY = "ensemble"
@@ -100,6 +109,9 @@ class EffectModel:
                 out[e][n] = p.decode(xi)
             for (e, n), v in self.grid.items():
                 out[e][n] = v
+            for e in self.effects:  # the values an effect sets and does not fit
+                for a in e.assumed:
+                    out[e.name][a.name] = a.value
             self._thetas = (key, out)
         return {e: dict(v) for e, v in self._thetas[1].items()}
 
@@ -197,12 +209,41 @@ class EffectModel:
         return {k: v[0] for k, v in got.items()}, tan
 
     def unfitted_tangents(self, x):
-        """The unfitted support factors of the effects (Effect.unfitted; z their ln
-        factor, left at 0 in the fit): ({record name: receptance}, [(SD, {record name:
-        d receptance / d z})] in the order of their keys); None when no effect has any,
-        or (logged) when the evaluator has no tangents for the spec (their scatter is then
-        left out)."""
+        """The effects' unfitted random terms: the support factors they leave at the mean
+        (Effect.unfitted; z the ln factor, 0 in the fit) and the spec values they assume
+        (Effect.assumed; z the log10 of the value over the assumed one): ({record name:
+        receptance at x}, [(SD, {record name: d receptance / d z})]), the support factors
+        first in the order of their keys, then the assumed values; None when there are
+        none. The support factors' tangents are closed-form (when the evaluator has none
+        for the spec their scatter is left out, logged); an assumed value's is the central
+        difference ASSUMED_STEP decades either side of it, the rest of x held."""
         th = self.thetas(x)
+        got = self._support_terms(x, th)
+        a0, terms = got if got is not None else (None, [])
+        assumed = [(e, a) for e in self.effects for a in e.assumed]
+        if assumed and a0 is None:
+            a0 = {r.name: self.evaluator.receptance(*self._where(x, th, r))
+                  for r in self.data.records}
+        terms += [(a.sd, self._assumed_tangent(x, th, e.name, a.name)) for e, a in assumed]
+        return (a0, terms) if terms else None
+
+    def _assumed_tangent(self, x, th, effect: str, name: str) -> dict:
+        """{record name: d receptance / d log10 of the assumed value ``name`` of
+        ``effect``} at x: a central difference, ASSUMED_STEP decades either side."""
+        out = {}
+        for r in self.data.records:
+            a = []
+            for d in (-ASSUMED_STEP, ASSUMED_STEP):
+                t = {k: dict(v) for k, v in th.items()}
+                t[effect][name] = th[effect][name] * 10.0 ** d
+                a.append(self.evaluator.receptance(*self._where(x, t, r)))
+            out[r.name] = (a[1] - a[0]) / (2 * ASSUMED_STEP)
+        return out
+
+    def _support_terms(self, x, th):
+        """The unfitted support factors (Effect.unfitted): ({record name: receptance},
+        [(SD of ln factor, {record name: d receptance / d ln factor})]) in the order of
+        their keys, or None."""
         sd = {}
         for e in self.effects:
             if e.unfitted is not None:

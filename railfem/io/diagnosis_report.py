@@ -130,8 +130,9 @@ def markdown(s: dict, figs: list[str], title: str) -> str:
                          f"[{_fmt(ci[0])}, {_fmt(ci[1])}] | [{_fmt(cj[0])}, {_fmt(cj[1])}] |")
         if c.get("unfitted_terms"):
             L += ["", f"The intervals include what the scatter of {c['unfitted_terms']} "
-                  "unfitted support factors (the effect's supports outside its window, "
-                  "at the prior's SD; held at the mean in the fit) can do to the estimates."]
+                  "unfitted terms (the effect's supports outside its window at the prior's "
+                  "SD, or the spec values it assumes at their stated SD; held fixed in the "
+                  "fit) can do to the estimates."]
         h = c["held_out"]
         L += ["", f"Held-out error (mean squared scaled residual) {h['mse_ref']:.3g} -> "
               f"{h['mse']:.3g} ({100 * h['reduction']:.0f} % lower, paired t = {h['t']:.2f}, "

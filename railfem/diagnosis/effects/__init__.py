@@ -36,6 +36,12 @@ part of a random effect's realisation the fit leaves at the mean (the supports o
 its window) and its scatter: it does not enter the fit, but the uncertainty of the fitted
 parameters includes what that scatter can do to them (railfem.identify.uncertainty,
 ``nuisance``).
+``assumed`` (optional, AssumedValue): the spec values an effect sets but does not fit
+(the data do not fix them), each with the standard deviation of its log10 (decades): it
+enters ``apply`` as theta[name] at its value in the fit, and its uncertainty enters the
+intervals of the fitted parameters as an unfitted random term, as the unfitted support
+factors do (the residual's change per decade of the value times its SD, by a central
+difference at the estimate: railfem.diagnosis.problem.EffectModel.unfitted_tangents).
 ``derived(parameters) -> [entries]`` (optional) adds the physical quantities a fitted
 parameter stands for to the reported parameters (group 'derived'; e.g. the roll stiffness
 of roll_restraint's grip share, with an interval open at the top).
@@ -49,6 +55,7 @@ import pkgutil
 from dataclasses import dataclass, field
 from typing import Callable
 
+from railfem import validators as v
 from railfem.params import Parameter
 
 KINDS = ("spec", "geometry", "measurement", "campaign")
@@ -87,6 +94,26 @@ class EffectParameter:
                          upper=self.upper)
 
 
+@dataclass(frozen=True, kw_only=True)
+class AssumedValue:
+    """A spec value an effect sets and does not fit: ``name`` (the key its ``apply`` reads
+    in theta), SI ``unit`` and ``value``, ``sd`` the standard deviation of its log10
+    (decades: 0.3 is a factor 2), ``source`` where value and SD come from (words)."""
+
+    name: str
+    unit: str
+    value: float
+    sd: float
+    source: str
+
+    def __post_init__(self):
+        v.positive(f"AssumedValue {self.name}: value", self.value, self.unit)
+        v.positive(f"AssumedValue {self.name}: sd", self.sd, "decades")
+        if not self.source:
+            raise ValueError(f"AssumedValue {self.name}: say where the value and its SD "
+                             "come from (source)")
+
+
 @dataclass(frozen=True, kw_only=True, eq=False)
 class Effect:
     """A candidate model extension (see the module docstring)."""
@@ -106,6 +133,7 @@ class Effect:
     deviation_of: Callable | None = None  # parameter name -> ((support indices), 'kp' | 'kb')
     unfitted: Callable | None = None  # spec -> {(support index, 'kp' | 'kb'): SD of ln}
     derived: Callable | None = None  # [parameter entries] -> [entries of derived quantities]
+    assumed: tuple[AssumedValue, ...] = ()  # spec values set, not fitted, with their SD
     grid: dict = field(default_factory=dict)
     needs: tuple[str, ...] = ()
     quantities: tuple[str, ...] = ("point", "phase", "transfer", "tdr")
@@ -118,8 +146,10 @@ class Effect:
         if hook is None:
             raise ValueError(f"Effect {self.name} of kind {self.kind!r} has no hook")
         names = [p.name for p in self.parameters]
+        names += [a.name for a in self.assumed] + [g for g in self.grid if g not in names]
         if len(set(names)) != len(names):
-            raise ValueError(f"Effect {self.name}: repeated parameter names {names}")
+            raise ValueError(f"Effect {self.name}: repeated names of parameters, grids "
+                             f"or assumed values {names}")
         for k, values in self.grid.items():
             if not values:
                 raise ValueError(f"Effect {self.name}: grid {k!r} has no values")
@@ -137,6 +167,8 @@ class Effect:
                                 "upper": p.upper, "scale": "log10" if p.log else "linear",
                                 "meaning": p.meaning} for p in self.parameters],
                 "grid": {k: list(v) for k, v in self.grid.items()},
+                "assumed": [{"name": a.name, "unit": a.unit, "value": a.value,
+                             "sd_decades": a.sd, "source": a.source} for a in self.assumed],
                 "screened_by_default": self.screened,
                 "needs": list(self.needs)}
 

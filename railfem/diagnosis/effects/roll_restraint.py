@@ -40,12 +40,24 @@ held rigidly for every rail seat of the library. The BIC and held-out gates do n
 
 **The loss factor is not fitted**: eta_roll is fixed at ETA_ROLL = 0.1 (assumed: the lower
 end of the clips' 0.1-0.2 assumed in docs/model.md; a grip of steel clips and polyamide
-guide plates is not a rubber pad). Free, it was not identifiable (it drifted to a bound of
-0.01-2 on blind and SBB data alike): the loss of a grip that nearly holds the foot
-dissipates little, as the foot hardly moves against it. It is not tied to the fitted pad's
-loss factor: on the SBB lateral rows the base's eta_p (0.6-2) takes up damping the
-single-layer support lacks, and a grip with that loss fitted worse than one near 0.01
-(B3 2012-09-12: dBIC +0.2 against -11.5 with eta_roll free).
+guide plates is not a rubber pad), and its uncertainty enters the intervals as an unfitted
+random term (Effect.assumed: ETA_ROLL_SD = 0.3 decades, a factor 2; railfem.diagnosis.
+problem.EffectModel.unfitted_tangents). The SD: no measured roll loss factor of a
+fastening is known to us; the loss factors published for whole fastenings differ by a
+factor 5 from track to track (0.05-0.25 over the five tracks of the presets' Table 1,
+docs/presets.md), elastomer pads are quoted at 0.08 (natural rubber) to 0.15-0.2 (damped
+polyurethane; a fastening supplier's note, chinarailfastener.com, "Damping characteristics
+and noise reduction design of rail pads", 2025), and steel clips and polyamide plates are
+less damped than elastomers; 0.3 decades puts 95 % of the grip's loss factor between 0.025
+and 0.4, a little wider than the pads' spread, since the grip's own has not been measured.
+It moves the grip by about 0.11 per decade on the blind lateral data (a stiffer grip with
+less loss stands in for a softer one with more; benchmarks/results/
+results_roll_restraint.md), so the term matters. Free, it was not identifiable (it
+drifted to a bound of 0.01-2 on blind and SBB data alike): the loss of a grip that
+nearly holds the foot dissipates little, as the foot hardly moves against it. It is not
+tied to the fitted pad's loss factor: on the SBB lateral rows the base's eta_p (0.6-2)
+takes up damping the single-layer support lacks, and a grip with that loss fitted worse
+than one near 0.01 (B3 2012-09-12: dBIC +0.2 against -11.5 with eta_roll free).
 
 The lateral clip stiffness k_clip is not a parameter: it acts in parallel with the lateral
 pad and in series with the same lateral sleeper-ballast chain, which on lateral rows the
@@ -60,12 +72,16 @@ for the foot edge bearing on the guide plates."""
 import math
 from dataclasses import replace
 
-from railfem.diagnosis.effects import Effect, EffectParameter
+from railfem.diagnosis.effects import AssumedValue, Effect, EffectParameter
 
 K_ROLL_CLIPS = 6e3  # N m/rad: the elastic clips of a W14-type fastening (docs/model.md)
 K_REF = 1e6  # N m/rad: the reference roll stiffness of the grip's share (module docstring)
 GRIP_MAX = 0.9999  # grip's upper bound: k_roll = 1e10 N m/rad, a foot held rigidly
 ETA_ROLL = 0.1  # the grip's loss factor (assumed; module docstring)
+#: decades: the SD of the assumed loss factor's log10 (pad loss factors 0.05-0.25 over
+#: five tracks, docs/presets.md, the original study's Table 1; elastomer pads 0.08-0.2, a
+#: supplier's note; no measured roll loss factor; module docstring)
+ETA_ROLL_SD = 0.3
 
 
 def k_roll(grip: float) -> float:
@@ -80,7 +96,7 @@ def grip(k: float) -> float:
 
 def apply(spec, theta, record=None):
     return spec.replace(support=replace(spec.support, k_roll=k_roll(float(theta["grip"])),
-                                        eta_roll=ETA_ROLL))
+                                        eta_roll=float(theta.get("eta_roll", ETA_ROLL))))
 
 
 def derived(params: list[dict]) -> list[dict]:
@@ -110,6 +126,10 @@ EFFECT = Effect(
     name="roll_restraint", title="the fastening's roll restraint on the rail foot",
     kind="spec", apply=apply, needs=("lateral",), quantities=("tdr", "point", "transfer"),
     derived=derived,
+    assumed=(AssumedValue(name="eta_roll", unit="-", value=ETA_ROLL, sd=ETA_ROLL_SD,
+                          source="assumed, the lower end of the clips' 0.1-0.2; its SD from "
+                                 "the pad loss factors of published fastenings "
+                                 "(0.05-0.25) and elastomer pads (0.08-0.2)"),),
     meaning="clips and guide plates resist the foot's roll beyond the vertical pad springs "
             "across it (the pad's own roll stiffness, on a seat that does not turn, is in "
             "the base): the rail's lateral and torsional waves decay faster; seen on "
@@ -121,5 +141,6 @@ EFFECT = Effect(
                                 "foot's roll restraint per support (0: no grip; 1: the "
                                 "foot held; elastic clips of a W14-type fastening ~0.006, "
                                 "above ~0.1 the foot bearing on the guide plates); its "
-                                "loss factor 0.1 (assumed)"),
+                                "loss factor 0.1 (assumed, SD 0.3 decades in the "
+                                "intervals)"),
     ))

@@ -1,0 +1,117 @@
+"""An effect's assumed spec values (railfem.diagnosis.effects.AssumedValue): a value the
+effect sets and does not fit, with the SD of its log10, enters the fitted parameters'
+intervals as an unfitted random term (railfem.diagnosis.problem.EffectModel.
+unfitted_tangents). The known answers are computed here without the hook: the residual
+of the plain base with the value changed in its spec, and the least-squares projection of
+that column on the Jacobian."""
+import numpy as np
+import pytest
+
+from benchmarks.blind import generators as g
+from railfem.diagnosis import effects, prepare
+from railfem.diagnosis.effects import AssumedValue, Effect
+from railfem.diagnosis.evaluate import Evaluator
+from railfem.diagnosis.problem import Problem
+from railfem.diagnosis.refit import refit
+
+SMALL_F = g.frequencies(low=50.0, high=4000.0)[::3]
+SCALE = {q: 0.4 for q in ("point", "phase", "transfer", "tdr")}
+MS = 120.0  # kg: the truth's sleeper mass per rail (g.truth_spec)
+SD = 0.2  # decades
+
+
+def sleeper_mass(spec, theta, record=None):
+    return spec.replace(ms=float(theta.get("ms", MS)))
+
+
+EFFECT = Effect(name="assumed_mass", title="an assumed sleeper mass", kind="spec",
+                meaning="the sleeper mass set, not fitted", parameters=(),
+                apply=sleeper_mass,
+                assumed=(AssumedValue(name="ms", unit="kg", value=MS, sd=SD,
+                                      source="this test"),))
+
+
+@pytest.fixture(scope="module")
+def clean():
+    """Clean data of the truth (the estimator's own form): the fit at the truth is exact,
+    so the intervals hold the assumed value's share alone."""
+    data = prepare(g.dataset("none", 0, f=SMALL_F, level=0.0))
+    x = np.log10([g.TRUTH[k] for k in ("kp", "eta_p", "kb", "eta_b")])
+    return data, x
+
+
+def plain_residual(data, ms, x):
+    """The base problem (no effect) with the sleeper mass set in its spec."""
+    pb = Problem(data=data, evaluator=Evaluator(), spec=g.truth_spec().replace(ms=ms),
+                 scale=SCALE)
+    return pb.residual(x)
+
+
+def reference_column(data, x, h=1e-3):
+    """SD x d residual / d log10 ms: a central difference of the plain residual."""
+    lo, hi = (plain_residual(data, MS * 10 ** d, x) for d in (-h, h))
+    return SD * (hi - lo) / (2 * h)
+
+
+def test_assumed_value_is_an_unfitted_column(clean):
+    data, x = clean
+    pb = Problem(data=data, evaluator=Evaluator(), spec=g.truth_spec(), effects=(EFFECT,),
+                 scale=SCALE)
+    np.testing.assert_allclose(pb.residual(x), plain_residual(data, MS, x), atol=1e-12)
+    N = pb.unfitted_jacobian(x)
+    assert N.shape == (len(pb.residual(x)), 1)
+    ref = reference_column(data, x)
+    assert np.linalg.norm(ref) > 1.0  # the mass moves the residual
+    assert np.linalg.norm(N[:, 0] - ref) < 0.02 * np.linalg.norm(ref)
+
+
+def test_interval_widens_by_the_assumed_values_projected_variance(clean):
+    """On clean data of the model the noise's variance is nil: each base parameter's
+    variance is the assumed mass's share, ||(J^T J)^-1 J^T n||^2 per parameter (n the
+    reference column), e.g. the ballast stiffness, which the sleeper's resonance on the
+    ballast ties to the mass; without the term (unfitted=False) it is nil."""
+    data, x = clean
+    spec = g.truth_spec()
+    with_term = refit(data, Evaluator(), spec, (EFFECT,), x, SCALE, refine=False,
+                      x_start=x)
+    without = refit(data, Evaluator(), spec, (EFFECT,), x, SCALE, refine=False,
+                    x_start=x, unfitted=False)
+    assert with_term.analysis["unfitted_terms"] == 1
+    pb = Problem(data=data, evaluator=Evaluator(), spec=spec, scale=SCALE)
+    J = pb.central_jacobian(with_term.x)
+    coef = np.linalg.lstsq(J, reference_column(data, with_term.x), rcond=None)[0]
+    sd = np.array([p["std_vector"] for p in with_term.analysis["parameters"]])
+    sd0 = np.array([p["std_vector"] for p in without.analysis["parameters"]])
+    kb = 2
+    assert abs(coef[kb]) > 0.05  # decades of kb per SD of the mass: a real share
+    np.testing.assert_allclose(sd, np.abs(coef), rtol=0.03, atol=1e-3 * abs(coef[kb]))
+    assert np.all(sd0 < 1e-2 * abs(coef[kb]))
+
+
+def test_the_contract_of_an_assumed_value():
+    with pytest.raises(ValueError, match="sd"):
+        AssumedValue(name="eta", unit="-", value=0.1, sd=0.0, source="x")
+    with pytest.raises(ValueError, match="source"):
+        AssumedValue(name="eta", unit="-", value=0.1, sd=0.3, source="")
+    with pytest.raises(ValueError, match="repeated"):
+        Effect(name="e", title="t", meaning="m", kind="spec", apply=sleeper_mass,
+               parameters=(effects.EffectParameter(name="ms", unit="kg", lower=1.0,
+                                                   upper=1e3, log=True, start=100.0,
+                                                   meaning="m"),),
+               assumed=(AssumedValue(name="ms", unit="kg", value=MS, sd=SD, source="s"),))
+    assert EFFECT.describe()["assumed"] == [{"name": "ms", "unit": "kg", "value": MS,
+                                             "sd_decades": SD, "source": "this test"}]
+
+
+def test_roll_restraint_assumes_its_loss_factor():
+    """roll_restraint declares its grip's loss factor as an assumed value (0.1, SD 0.3
+    decades) and applies the value it is given."""
+    from railfem.diagnosis.effects import roll_restraint as rr
+
+    e = effects.get("roll_restraint")
+    (a,) = e.assumed
+    assert (a.name, a.value, a.sd) == ("eta_roll", 0.1, 0.3) == \
+        ("eta_roll", rr.ETA_ROLL, rr.ETA_ROLL_SD)
+    base = g.lateral_truth_spec("none")
+    assert e.apply(base, {"grip": 0.5, "eta_roll": 0.2}).support.eta_roll == 0.2
+    assert e.apply(base, {"grip": 0.5}).support.eta_roll == 0.1
