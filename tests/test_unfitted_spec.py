@@ -115,3 +115,38 @@ def test_roll_restraint_assumes_its_loss_factor():
     base = g.lateral_truth_spec("none")
     assert e.apply(base, {"grip": 0.5, "eta_roll": 0.2}).support.eta_roll == 0.2
     assert e.apply(base, {"grip": 0.5}).support.eta_roll == 0.1
+
+
+def test_unfitted_share_is_added_to_the_larger_noise_variance():
+    """The shift an unfitted term makes is independent of the noise and absorbed by the
+    fit, so the cluster-robust variance does not see it: with clustered noise (the robust
+    variance the larger) the parameter's variance is the robust one plus the term's
+    projected variance, sum_k (lstsq coefficient of column k)^2, not the larger of the
+    two (which kept the robust one alone)."""
+    from types import SimpleNamespace
+
+    from railfem.identify import uncertainty as u
+    from railfem.params import Parameter
+
+    rng = np.random.default_rng(0)
+    t = np.linspace(0.0, 1.0, 200)
+    J = np.column_stack([np.ones_like(t), t])
+    clusters = np.repeat(np.arange(20), 10)
+    r = np.repeat(rng.standard_normal(20), 10) + 0.1 * rng.standard_normal(200)
+    r -= J @ np.linalg.lstsq(J, r, rcond=None)[0]  # a residual at the optimum
+    N = 0.5 * np.column_stack([np.sin(3 * t), t ** 2])
+    space = SimpleNamespace(
+        parameters=tuple(Parameter(name=n, unit="-", log=False, lower=-1e3, upper=1e3)
+                         for n in "ab"),
+        names=("a", "b"), lower=np.full(2, -1e3), upper=np.full(2, 1e3))
+    noise = u.analyse(space, np.zeros(2), J, r, clusters=clusters)["parameters"]
+    plain = u.analyse(space, np.zeros(2), J, r)["parameters"]
+    both = u.analyse(space, np.zeros(2), J, r, clusters=clusters,
+                     nuisance=N)["parameters"]
+    coef = np.linalg.lstsq(J, N, rcond=None)[0]  # (parameters, terms)
+    share = np.sum(coef ** 2, axis=1)
+    for i in range(2):
+        assert noise[i]["std_vector"] > 2 * plain[i]["std_vector"]  # robust the larger
+        assert share[i] > 0.1 * noise[i]["std_vector"] ** 2  # a share that shows
+        assert both[i]["std_vector"] ** 2 == pytest.approx(
+            noise[i]["std_vector"] ** 2 + share[i], rel=1e-9)

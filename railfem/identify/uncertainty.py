@@ -7,7 +7,7 @@ parameter vector: log10 of stiffnesses, masses and loss factors, metres for a le
 
 (or, where entries share noise, the larger of C_ii and the cluster-robust sandwich
 variance, robust_covariance; where the residual also carries independent random terms the
-model leaves out, r = ... + N z with z of unit variance, C gains G G^T with
+model leaves out, r = ... + N z with z of unit variance, C then gains G G^T with
 G = (J^T J)^-1 J^T N, nuisance_covariance) and the 95 % interval of x_i is x_i +- t_(0.975, N-p)
 sqrt(C_ii), mapped back to SI (a multiplicative interval for log-scale parameters). J^T J
 is inverted through the SVD of J with singular values below 1e-10 of the largest dropped
@@ -98,26 +98,26 @@ def analyse(space, x: np.ndarray, J: np.ndarray, r: np.ndarray, profiles=None,
     ``clusters``: a label per residual entry (robust_covariance): each parameter's variance
     is then the larger of the model-based and the cluster-robust one (the model-based one
     assumes independent entries of equal variance; the robust one holds without);
-    ``nuisance``: N (entries x terms), unfitted random terms (nuisance_covariance), whose
-    covariance is added to the model-based one; ``discrepancy``: the model-form
-    discrepancy's terms (railfem.identify.problem.Problem.discrepancy_columns, the same
-    form), whose covariance is added to the noise's whichever of the two it is: the shift
-    of the estimate under another model form is independent of the noise, so it is not
-    lost where the cluster-robust variance is the larger one (added to the model-based one
-    only, it was: the rail loss factor's interval of a WFE base kept the noise's share
-    alone on clean data of another form, and missed the truth)."""
+    ``nuisance``: N (entries x terms), unfitted random terms (nuisance_covariance);
+    ``discrepancy``: the model-form discrepancy's terms (railfem.identify.problem.Problem.
+    discrepancy_columns, the same form). The covariance of both is added to the noise's,
+    whichever of the two that is: the shift of the estimate under another model form or an
+    unfitted term is independent of the noise and, absorbed by the fit (J^T r = 0), not
+    seen by the cluster-robust variance, so it is not lost where that one is the larger
+    (added to the model-based one only, it was: the rail loss factor's interval of a WFE
+    base kept the noise's share alone on clean data of another form and missed the truth;
+    roll_restraint's assumed loss factor lost its share on the blind seeds where the
+    robust variance was the larger, benchmarks/results/results_roll_restraint.md)."""
     C, C_diag, s2, dof, sv, Vt = covariance(J, r)
-    if nuisance is not None and np.size(nuisance):
-        extra = nuisance_covariance(J, np.asarray(nuisance, dtype=float))
-        C, C_diag = C + extra, C_diag + np.diag(extra)
     C_rob = None
     if clusters is not None:
         C_rob, _ = robust_covariance(J, r, clusters)
         C_diag = np.maximum(C_diag, np.diag(C_rob))
-    if discrepancy is not None and np.size(discrepancy):
-        D = nuisance_covariance(J, np.asarray(discrepancy, dtype=float))
-        C, C_diag = C + D, C_diag + np.diag(D)
-        C_rob = None if C_rob is None else C_rob + D
+    for terms in (nuisance, discrepancy):  # after the larger of the noise's two
+        if terms is not None and np.size(terms):
+            D = nuisance_covariance(J, np.asarray(terms, dtype=float))
+            C, C_diag = C + D, C_diag + np.diag(D)
+            C_rob = None if C_rob is None else C_rob + D
     t = float(stats.t.ppf(0.975, dof))
     rho = correlation(C)
     lo, hi = space.lower, space.upper
