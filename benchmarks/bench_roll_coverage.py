@@ -5,12 +5,14 @@ loss factor 0.3), diagnosed as tests/test_diagnosis_lateral.py's ``blind`` does 
 roll_restraint alone, n_starts=2, no pairs, final profile on): per seed the grip share and
 k_roll with their 95 % intervals, whether they hold the truth, BIC against the base,
 whether the candidate was kept, and the grip's variance part by part (noise: the
-model-based one; robust: the cluster-robust one; discrepancy: the model-form ensemble's
-terms, with each variant's shift of the grip). JSON lines, then a table.
+model-based one; robust: the cluster-robust one; unfitted: the assumed loss factor's
+term, roll_restraint.ETA_ROLL_SD; discrepancy: the model-form ensemble's terms, with each
+variant's shift of the grip). JSON lines, then a table.
 
     export OPENBLAS_NUM_THREADS=1 RAILFEM_CACHE=/tmp/cache
     nice -n 5 python -m benchmarks.bench_roll_coverage OUT.jsonl 0-9
     ... OUT.jsonl 0 --level 0 [--form own] [--bands small]     (clean data)
+    ... OUT.jsonl 0-2 --case none          (data without a grip: nothing may be kept)
     python -m benchmarks.bench_roll_coverage --table OUT.jsonl
 
 ``--bands``: 'lateral' (generators.LATERAL_BANDS, 100-630 Hz, default) or 'small'
@@ -46,11 +48,16 @@ class Parts:
             parts = {"noise": float(C_diag[i]), "s2": float(s2), "dof": int(dof)}
             if clusters is not None:
                 parts["robust"] = float(self.u.robust_covariance(J, r, clusters)[0][i, i])
+            if nuisance is not None and np.size(nuisance):  # the assumed eta_roll's share
+                parts["unfitted"] = float(self.u.nuisance_covariance(
+                    J, np.asarray(nuisance, dtype=float))[i, i])
+            parts["t"] = float(out["t_quantile"])
             if discrepancy is not None and np.size(discrepancy):
                 N = np.asarray(discrepancy, dtype=float)
                 parts["discrepancy"] = float(self.u.nuisance_covariance(J, N)[i, i])
                 # one column per variant, scaled by sqrt(1/n) and t(n)/t(dof)
                 # (railfem.diagnosis.intervals.discrepancy_terms): its own share
+                parts["n_columns"] = int(N.shape[1])
                 parts["per_variant"] = [float(np.sqrt(self.u.nuisance_covariance(
                     J, N[:, [k]])[i, i])) for k in range(N.shape[1])]
             parts["sd"] = out["parameters"][i]["std_vector"]
@@ -58,7 +65,7 @@ class Parts:
         return out
 
 
-def run(seed: int, bands: str, level: float, form: str) -> dict:
+def run(seed: int, bands: str, level: float, form: str, case: str = "roll_restraint") -> dict:
     from benchmarks.blind import generators as g
     from railfem.diagnosis import diagnose
     from railfem.identify import uncertainty
@@ -67,7 +74,7 @@ def run(seed: int, bands: str, level: float, form: str) -> dict:
     uncertainty.analyse = parts
     try:
         t0 = time.process_time()
-        rows = g.decay_rates("roll_restraint", seed, bands=BANDS[bands], cache=True,
+        rows = g.decay_rates(case, seed, bands=BANDS[bands], cache=True,
                              level=level, form=form)
         d = diagnose(rows, model=g.LATERAL_MODEL, spacing=0.6, effects=("roll_restraint",),
                      data_options={"directions": "zy"}, n_starts=2, pairs=False,
@@ -78,13 +85,15 @@ def run(seed: int, bands: str, level: float, form: str) -> dict:
     best = min(d.candidates, key=lambda row: row["bic"])
     fitted = d.chosen.parameters() if d.chosen is not None else best["parameters"]
     par = {p["name"].split(".")[-1]: p for p in fitted}
-    truth = g.LATERAL_CASES["roll_restraint"]["k_roll"]
+    truth = g.LATERAL_CASES[case].get("k_roll")
     lo, hi = par["k_roll"]["ci95"]
-    return {"seed": seed, "bands": bands, "level": level, "form": form,
+    return {"seed": seed, "bands": bands, "level": level, "form": form, "case": case,
+            "chosen": None if d.chosen is None else d.chosen.name,
             "cpu_s": round(cpu, 1), "best": best["name"], "delta_bic": best["delta_bic"],
             "kept": d.chosen is not None, "grip": par["grip"]["value"],
             "grip_ci95": par["grip"]["ci95"], "k_roll": par["k_roll"]["value"],
-            "k_roll_ci95": [lo, hi], "inside": bool(lo <= truth <= hi),
+            "k_roll_ci95": [lo, hi],
+            "inside": None if truth is None else bool(lo <= truth <= hi),
             "parts": parts.last}
 
 
@@ -98,23 +107,32 @@ def seeds(text: str) -> list[int]:
 def table(path: str) -> str:
     rows = [json.loads(line) for line in open(path) if line.strip()]
     out = ["| seed | bands | noise | form | grip | grip 95 % | k_roll 95 % (N m/rad) | "
-           "inside | dBIC | kept | SD: noise / disc. | CPU s |",
+           "inside | dBIC | kept | SD: noise / disc. / assumed | CPU s |",
            "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         p = r.get("parts") or {}
         sd = (f"{np.sqrt(max(p.get('noise', 0), p.get('robust', 0))):.3f} / "
-              f"{np.sqrt(p.get('discrepancy', 0)):.3f}")
+              f"{np.sqrt(p.get('discrepancy', 0)):.3f} / "
+              f"{np.sqrt(p.get('unfitted', 0)):.3f}")
         g0, g1 = r["grip_ci95"]
         k0, k1 = r["k_roll_ci95"]
         out.append(f"| {r['seed']} | {r['bands']} | {r['level']:g} | {r['form']} | "
                    f"{r['grip']:.3f} | {g0:.3f}-{g1:.3f} | {k0:.3g}-{k1:.3g} | "
-                   f"{'yes' if r['inside'] else '**out**'} | {r['delta_bic']:.1f} | "
+                   f"{inside(r)} | {r['delta_bic']:.1f} | "
                    f"{'yes' if r['kept'] else 'no'} | {sd} | {r['cpu_s']:.0f} |")
-    n = [r for r in rows if r["level"] > 0]
+    n = [r for r in rows if r["level"] > 0 and r.get("case", "roll_restraint") != "none"]
     if n:
         out.append(f"\nnoisy runs: truth inside {sum(r['inside'] for r in n)}/{len(n)}, "
                    f"mean grip {np.mean([r['grip'] for r in n]):.3f} (truth 0.5)")
     return "\n".join(out)
+
+
+def inside(row) -> str:
+    """'yes' / '**out**' (the truth in k_roll's interval), or, on data without a grip
+    (case 'none'), what the diagnosis kept ('none': no claim)."""
+    if row.get("case", "roll_restraint") == "none":
+        return f"none: kept {row.get('chosen') or 'nothing'}"
+    return "yes" if row["inside"] else "**out**"
 
 
 def main(argv: list[str]) -> None:
@@ -124,7 +142,7 @@ def main(argv: list[str]) -> None:
     opts = dict(zip(argv[2::2], argv[3::2]))
     for s in seeds(argv[1]):
         row = run(s, opts.get("--bands", "lateral"), float(opts.get("--level", 0.05)),
-                  opts.get("--form", "cross"))
+                  opts.get("--form", "cross"), opts.get("--case", "roll_restraint"))
         with open(argv[0], "a") as fh:
             fh.write(json.dumps(row) + "\n")
         print(json.dumps(row), flush=True)
