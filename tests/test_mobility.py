@@ -568,3 +568,49 @@ def test_under_resolved_frequency_is_flagged(caplog):
     with caplog.at_level("WARNING", logger="railfem"):
         mobility.free_receptance(g, [1e5], [hp], [hp], [0.3], n_waves=10)
     assert any("elements per shortest" in r.getMessage() for r in caplog.records)
+
+
+def test_free_receptance_builds_each_guides_operators_once(monkeypatch):
+    """Called frequency by frequency, free_receptance builds a guide's family operators once
+    and gives what a sweep gives; a guide of another loss factor gets its own operators (its
+    waves, not the first guide's), and the operators go with their guide."""
+    import gc
+    import weakref
+
+    monkeypatch.setenv(waves.CACHE_VARIABLE, "0")  # no wave cache: every call solves
+    built = []  # weak references to the operators built
+    real = mobility.FamilyOperators
+
+    def counting(guide, family):
+        ops = real(guide, family)
+        built.append(weakref.ref(ops))
+        return ops
+
+    monkeypatch.setattr(mobility, "FamilyOperators", counting)
+    g = waveguide.assemble(meshing.get_mesh("60E1", 0.02), Material.steel(0.01))
+    head = mobility.head_patch(g, 0.02)
+    f, x = [300.0, 1700.0], [0.0, 0.3]
+    one_by_one = np.concatenate([mobility.free_receptance(g, [fi], [head], [head], x,
+                                                          n_waves=20, tail=False) for fi in f])
+    assert len(built) == len(g.families)  # not once per call
+    sweep = mobility.free_receptance(g, f, [head], [head], x, n_waves=20, tail=False)
+    assert np.array_equal(one_by_one, sweep)
+    assert len(built) == len(g.families)
+    g5 = g.with_loss_factor(0.05)
+    a5 = mobility.free_receptance(g5, f, [head], [head], x, n_waves=20, tail=False)
+    assert len(built) == 2 * len(g.families)
+    # the same receptance from operators built here (FamilyResponse, waves_at, wave_sum)
+    ref = np.zeros_like(a5)
+    Fw = head.weights[:, None]
+    for fam in g5.families:
+        fr = mobility.FamilyResponse(g5, fam, Fw, Fw)
+        if fr.active:
+            for i, fi in enumerate(f):
+                w = waves.waves_at(fr.ops, 2 * np.pi * fi, method="shift-invert", n_waves=20)
+                ref[i] += mobility.wave_sum(fr, w, np.array(x), mobility.DEFAULT_LOAD_LENGTH)
+    assert np.abs(a5 - ref).max() < 1e-12 * np.abs(ref).max()
+    assert np.abs(a5 - sweep).max() > 1e-3 * np.abs(sweep).max()  # another loss factor
+    nf = len(g.families)
+    del g5
+    gc.collect()
+    assert [r() is None for r in built[: 2 * nf]] == [False] * nf + [True] * nf

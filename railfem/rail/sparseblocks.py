@@ -77,7 +77,33 @@ def block_solver(Zaa, Zpp, Zap, na: int, orders=None, transposed: bool = False):
 
     solve.dtype = dtype  # complex with a loss factor or a complex foundation stiffness
     solve.orders = (np.argsort(la.perm_c), np.argsort(lp.perm_c)) if qa is None else orders
+    solve.factors = (la, lp, Zc)  # for BlockShiftInvert (block coordinates)
     return solve
+
+
+class BlockShiftInvert(spl.LinearOperator):
+    """y -> Z^-1 (B y) in the block coordinates of a ``block_solver(..., orders,
+    transposed=True)`` solve (rows and columns of each diagonal block in its order), with B
+    given in those coordinates (e.g. -B0 for ARPACK's -Z^-1 B0): one sparse product, two
+    triangular solve pairs and the ap product, no gathers or scatters and none of
+    LinearOperator's checks per product (ARPACK calls it about 2n times for n waves)."""
+
+    def __init__(self, solve, B, na: int):
+        self._la, self._lp, self._Zap = solve.factors
+        self._B, self._na = B, na
+        super().__init__(np.dtype(solve.dtype), B.shape)
+
+    def matvec(self, x):
+        b = self._B @ x  # a fresh vector: the result is written into it
+        na = self._na
+        yp = self._lp.solve(b[na:], trans="T")
+        ba = b[:na]
+        ba -= self._Zap @ yp
+        b[:na] = self._la.solve(ba, trans="T")
+        b[na:] = yp
+        return b
+
+    _matvec = matvec
 
 
 def permuted_pattern(positions: np.ndarray, P: sp.csc_matrix, q: np.ndarray,

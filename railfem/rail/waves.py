@@ -41,8 +41,8 @@ import scipy.linalg as sl
 import scipy.sparse as sp
 import scipy.sparse.linalg as spl
 
-from .sparseblocks import (block_solver, block_sum, column_norms, diagonal_blocks, on_pattern,
-                           ordered_blocks, real_times)
+from .sparseblocks import (BlockShiftInvert, block_solver, block_sum, column_norms,
+                           diagonal_blocks, on_pattern, ordered_blocks, real_times)
 from .waveguide import Waveguide, reduced
 
 log = logging.getLogger(__name__)
@@ -99,6 +99,7 @@ class FamilyOperators:
         self.Z_ap = block_sum(self.na, (K1, "ap")).tocsr()[: self.na, self.na:]  # no M in it
         self.B0r = self.B0.tocsr()
         self._B0c = self._ordered = None
+        self._B0q, self._perm = {}, None  # shift_invert_operator's -B0 and coordinates
 
     def constant_matrix(self, omega: float, c: complex | None = None):
         """Z(omega) = c K0' - omega^2 M (+ extra(omega)), CSC; c defaults to 1 + i eta."""
@@ -140,19 +141,33 @@ class FamilyOperators:
 
     def _block_solve(self, data):
         """The blockwise solver of the matrix with entries ``data`` on the pattern. The
-        blocks' minimum-degree orderings depend on the pattern only: found by the first
-        factorisation, then reused (the blocks' transposes, which block_solver factorises,
-        laid out in that order directly)."""
+        blocks' minimum-degree orderings depend on the pattern only: found by a first
+        factorisation, then used for every solve (the blocks' transposes, which block_solver
+        factorises, laid out in that order directly), the first one included, so that a
+        result does not depend on what was solved before."""
         def block(positions, P):
             return sp.csc_matrix((data[positions], P.indices, P.indptr), shape=P.shape)
 
         if self._ordered is None:
             (iaa, Paa), (ipp, Ppp) = self.blocks
-            solve = block_solver(block(iaa, Paa), block(ipp, Ppp), self.Z_ap, self.na)
-            self._ordered = ordered_blocks(self.blocks, self.Z_ap, solve.orders)
-            return solve
+            first = block_solver(block(iaa, Paa), block(ipp, Ppp), self.Z_ap, self.na)
+            self._ordered = ordered_blocks(self.blocks, self.Z_ap, first.orders)
+            self._perm = np.concatenate([first.orders[0], self.na + first.orders[1]])
         aa, pp, Zap, orders = self._ordered
         return block_solver(block(*aa), block(*pp), Zap, self.na, orders, transposed=True)
+
+    def shift_invert_operator(self, omega, c: complex | None = None):
+        """(op, perm): op y = -Z^-1 B0 y in the block coordinates y = x[perm] (axial DOFs
+        in the axial block's fill-reducing order, then the in-plane ones in theirs), Z as in
+        ``factorised``; (None, None) with an ``extra`` stiffness. A similarity transform of
+        -Z^-1 B0 by a permutation: the same eigenvalues, eigenvectors permuted."""
+        if self.extra is not None:
+            return None, None
+        solve = self.factorised(omega, c)
+        dtype, p = np.dtype(solve.dtype), self._perm
+        if dtype not in self._B0q:  # -B0 in block coordinates, entries of the solve's dtype
+            self._B0q[dtype] = (-self.B0r[p][:, p]).astype(dtype).tocsr()
+        return BlockShiftInvert(solve, self._B0q[dtype], self.na), p
 
     def B0_as(self, dtype):
         """B0 (CSR) with entries of dtype: complex for products with complex vectors (a real
@@ -341,17 +356,23 @@ def _lambdas_shift_invert(ops: FamilyOperators, omega: float, n: int, c: complex
     (the pencil divided by c: B0 stays real, and undamped operators stay real)."""
     N = ops.B0.shape[0]
     n = min(n, N - 2)
-    solve = ops.factorised(omega, c)
-    dtype = solve.dtype
-    B = ops.B0_as(dtype)
-    op = spl.LinearOperator(B.shape, dtype=dtype, matvec=lambda x: -solve(B @ x))
     # a fixed start vector: ARPACK's own is drawn from a generator that carries over between
     # calls, which would make a result depend (at round-off level) on what ran before
-    v0 = np.random.default_rng(0).standard_normal(N).astype(dtype)
+    v0 = np.random.default_rng(0).standard_normal(N)
+    op, perm = ops.shift_invert_operator(omega, c)  # in the blocks' orders: no gathers
+    if op is None:  # a foundation stiffness: the solve in the operators' own order
+        solve = ops.factorised(omega, c)
+        B = ops.B0_as(solve.dtype)
+        op = spl.LinearOperator(B.shape, dtype=solve.dtype, matvec=lambda x: -solve(B @ x))
+    else:
+        v0 = v0[perm]
+    v0 = v0.astype(op.dtype)
     # about 2n Krylov vectors are needed whatever ncv; beyond 60 waves a basis of 1.5 n
     # restarts once at no more products and less orthogonalisation (benchmarks)
     ncv = min(N - 1, 2 * n + 1 if n <= 60 else n + n // 2)
     nu, vec = spl.eigs(op, k=n, which="LM", tol=1e-10, v0=v0, ncv=ncv)
+    if perm is not None:
+        vec = vec[np.argsort(perm)]  # the operators' order, rows contiguous
     return 1.0 / nu, vec
 
 
