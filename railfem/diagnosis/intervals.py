@@ -60,7 +60,18 @@ def discrepancy_terms(problem, dof: int, level: float = 0.975):
     (benchmarks/blind, form 'cross') the pad loss factor's estimate sat 0.075 decades
     from the truth, 2.6 times the RMS of the variants' shifts (0.029): outside the 1.96
     quantile, inside 3.18 (the shifts of the 15 mm mesh and of the node springs were
-    0.036 and 0.034: the other model differs in both at once). None without discrepancy."""
+    0.036 and 0.034: the other model differs in both at once). None without discrepancy.
+
+    Not taken: the variants' shift variances summed (foreign data differ in every aspect
+    at once) with the normal quantile, sqrt(3) x 1.96 = 3.39 RMS instead of 3.18 (3.61 at
+    20 degrees of freedom). With three variants both bound the shifts of all three adding
+    with one sign (sqrt(3) |d| = 1.73 |d|, |d| their root sum of squares: 1.84 |d| today,
+    1.96 |d| summed); the other form's shifts seen so far lie inside both (the grip of
+    roll_restraint 1.3 |d|, the pad loss factor 1.5 |d|). On the blind lateral data of
+    roll_restraint (10 seeds) it widened the grip's interval by 4-10 % and brought none of
+    the three seeds whose interval misses the truth inside (lower ends 0.503-0.517 for
+    0.5): what they lack is the bias of the grip's assumed loss factor, to which the grip
+    is convex (benchmarks/results/results_roll_restraint.md)."""
     N = problem.discrepancy_columns()
     disc = getattr(problem.scale, "discrepancy", None)
     labels = tuple(getattr(disc, "variants", ()) or ())
