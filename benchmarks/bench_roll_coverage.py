@@ -13,6 +13,8 @@ variant's shift of the grip). JSON lines, then a table.
     nice -n 5 python -m benchmarks.bench_roll_coverage OUT.jsonl 0-9
     ... OUT.jsonl 0 --level 0 [--form own] [--bands small]     (clean data)
     ... OUT.jsonl 0-2 --case none          (data without a grip: nothing may be kept)
+    ... OUT.jsonl 2 --eta-roll 0.2         (another assumed loss factor of the grip)
+    python -m benchmarks.bench_roll_coverage --summed OUT.jsonl   (variants summed)
     python -m benchmarks.bench_roll_coverage --table OUT.jsonl
 
 ``--bands``: 'lateral' (generators.LATERAL_BANDS, 100-630 Hz, default) or 'small'
@@ -65,13 +67,20 @@ class Parts:
         return out
 
 
-def run(seed: int, bands: str, level: float, form: str, case: str = "roll_restraint") -> dict:
+def run(seed: int, bands: str, level: float, form: str, case: str = "roll_restraint",
+        eta_roll: float | None = None) -> dict:
+    from dataclasses import replace
+
     from benchmarks.blind import generators as g
-    from railfem.diagnosis import diagnose
+    from railfem.diagnosis import diagnose, effects
     from railfem.identify import uncertainty
 
     parts = Parts(uncertainty)
     uncertainty.analyse = parts
+    eff = effects.REGISTRY["roll_restraint"]
+    if eta_roll is not None:  # another assumed loss factor of the grip
+        effects.REGISTRY["roll_restraint"] = replace(
+            eff, assumed=tuple(replace(a, value=eta_roll) for a in eff.assumed))
     try:
         t0 = time.process_time()
         rows = g.decay_rates(case, seed, bands=BANDS[bands], cache=True,
@@ -82,12 +91,14 @@ def run(seed: int, bands: str, level: float, form: str, case: str = "roll_restra
         cpu = time.process_time() - t0
     finally:
         uncertainty.analyse = parts.orig
+        effects.REGISTRY["roll_restraint"] = eff
     best = min(d.candidates, key=lambda row: row["bic"])
     fitted = d.chosen.parameters() if d.chosen is not None else best["parameters"]
     par = {p["name"].split(".")[-1]: p for p in fitted}
     truth = g.LATERAL_CASES[case].get("k_roll")
     lo, hi = par["k_roll"]["ci95"]
     return {"seed": seed, "bands": bands, "level": level, "form": form, "case": case,
+            "eta_roll": eta_roll,
             "chosen": None if d.chosen is None else d.chosen.name,
             "cpu_s": round(cpu, 1), "best": best["name"], "delta_bic": best["delta_bic"],
             "kept": d.chosen is not None, "grip": par["grip"]["value"],
@@ -135,14 +146,37 @@ def inside(row) -> str:
     return "yes" if row["inside"] else "**out**"
 
 
+def summed(path: str, n_aspects: int = 3) -> str:
+    """The grip's interval if the variants' shift variances were summed with the normal
+    quantile (railfem.diagnosis.intervals.discrepancy_terms: not taken) beside today's,
+    from each run's variance parts: today's discrepancy share is scaled by
+    t(0.975, n_aspects) / t(0.975, dof); summed, by sqrt(n_aspects)."""
+    from scipy import stats
+
+    out = ["| seed | grip | half-width today | lower end today | half-width summed | "
+           "lower end summed | ratio |", "|---|---|---|---|---|---|---|"]
+    for r in (json.loads(line) for line in open(path) if line.strip()):
+        p = r.get("parts") or {}
+        if r.get("case", "roll_restraint") == "none" or "discrepancy" not in p:
+            continue
+        k = stats.t.ppf(0.975, n_aspects) / stats.t.ppf(0.975, p["dof"])
+        noise = max(p["noise"], p.get("robust", 0.0)) + p.get("unfitted", 0.0)
+        now = p["t"] * np.sqrt(noise + p["discrepancy"])
+        alt = p["t"] * np.sqrt(noise + p["discrepancy"] * n_aspects / k ** 2)
+        out.append(f"| {r['seed']} | {r['grip']:.3f} | {now:.3f} | {r['grip'] - now:.3f} | "
+                   f"{alt:.3f} | {r['grip'] - alt:.3f} | {alt / now:.3f} |")
+    return "\n".join(out)
+
+
 def main(argv: list[str]) -> None:
-    if argv[0] == "--table":
-        print(table(argv[1]))
+    if argv[0] in ("--table", "--summed"):
+        print((table if argv[0] == "--table" else summed)(argv[1]))
         return
     opts = dict(zip(argv[2::2], argv[3::2]))
     for s in seeds(argv[1]):
         row = run(s, opts.get("--bands", "lateral"), float(opts.get("--level", 0.05)),
-                  opts.get("--form", "cross"), opts.get("--case", "roll_restraint"))
+                  opts.get("--form", "cross"), opts.get("--case", "roll_restraint"),
+                  float(opts["--eta-roll"]) if "--eta-roll" in opts else None)
         with open(argv[0], "a") as fh:
             fh.write(json.dumps(row) + "\n")
         print(json.dumps(row), flush=True)
