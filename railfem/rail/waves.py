@@ -232,7 +232,10 @@ class FamilyOperators:
 # ----------------------------------------------------------------- BLAS threads and cache
 THREADS_VARIABLE = "RAILFEM_BLAS_THREADS"  # BLAS threads in solver calls; "none": leave as set
 CACHE_VARIABLE = "RAILFEM_WAVE_CACHE_MB"  # bound of the in-memory wave cache; 0 disables it
-DEFAULT_CACHE_MB = 256.0
+# 512: a diagnosis on WFE holds the undamped pairs of its frozen tails (N x N each, 12-50 MB
+# for a 10 mm section) for the base and its discretisation variants; at 256 they were
+# evicted by the per-frequency waves and solved again (benchmarks/results/results_tests.txt)
+DEFAULT_CACHE_MB = 512.0
 _controller = None
 _cache: OrderedDict = OrderedDict()
 
