@@ -161,3 +161,23 @@ def test_waves_do_not_depend_on_what_was_solved_before():
     later = waves.waves_at(ops, om, method="shift-invert", n_waves=20)
     assert np.array_equal(fresh.k, later.k)
     assert np.array_equal(fresh.phi, later.phi)
+
+
+def test_denominators_equal_the_derivative_of_the_quadratic_pencil():
+    """ops.dA (one product with B0) against psi^T c (2 k K2 + i K1) phi with psi = T_a phi
+    built column by column from the guide's matrices, for any shapes and wavenumbers
+    (k = 0 included)."""
+    g = rail(0.04)
+    ops = waves.FamilyOperators(g, "antisymmetric")
+    T = g.families["antisymmetric"].T
+    K1, K2 = ((T.T @ X @ T).tocsr()[ops.order][:, ops.order] for X in (g.K1, g.K2))
+    rng = np.random.default_rng(11)
+    n = ops.B0.shape[0]
+    phi = rng.standard_normal((n, 5)) + 1j * rng.standard_normal((n, 5))
+    k = np.array([0.0, 2.5 - 0.01j, -30.0j, 140.0 - 80.0j, 1e-4])
+    psi = phi.copy()
+    psi[: ops.na] *= -1.0
+    ref = np.array([(1 + 0.04j) * psi[:, j] @ ((2 * k[j] * K2 + 1j * K1) @ phi[:, j])
+                    for j in range(5)])
+    got = ops.dA(k, phi)
+    assert np.max(np.abs(got - ref) / np.abs(ref)) < 1e-12

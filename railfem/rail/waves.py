@@ -79,6 +79,7 @@ class FamilyOperators:
         self.a = np.nonzero(comp == 0)[0]
         self.p = np.nonzero(comp != 0)[0]
         self.order = np.concatenate([self.a, self.p])
+        self.reduced_rows = np.argsort(self.order)  # ordered -> reduced DOFs
         self.na = len(self.a)
         c = 1 + 1j * guide.loss_factor
         K0, K1, K2, M = (X[self.order][:, self.order] for X in reduced(guide, family))
@@ -205,16 +206,16 @@ class FamilyOperators:
     def dA(self, k: np.ndarray, phi: np.ndarray) -> np.ndarray:
         """psi_n^T A'(k_n) phi_n for every column, A' = c (2 k K2 + i K1).
 
-        Formed as c (2 k psi^T K2 phi + i psi^T K1 phi) with psi^T Y = phi_p^T Y_p - phi_a^T Y_a
-        (T_a flips the axial DOFs): no (N, n) temporaries beyond the two products."""
+        With u_a = i k w and K1 skew, psi^T A' phi = 2 c y^T B0 x for x = (-i u_a, k u_p)
+        and y = (-i k u_a, u_p): one product with B0 (fewer entries than K2 and K1) and no
+        division by k."""
         na = self.na
-
-        def form(Y):
-            return (np.einsum("ij,ij->j", phi[na:], Y[na:])
-                    - np.einsum("ij,ij->j", phi[:na], Y[:na]))
-
-        return self.c * (2 * k * form(real_times(self.K2, phi))
-                         + 1j * form(real_times(self.K1, phi)))
+        x = phi.copy()
+        x[:na] *= -1j
+        x[na:] *= k
+        Y = real_times(self.B0r, x)
+        return 2 * self.c * (np.einsum("ij,ij->j", phi[na:], Y[na:])
+                             - 1j * k * np.einsum("ij,ij->j", phi[:na], Y[:na]))
 
     def group_velocity(self, omega: float, k: np.ndarray, phi: np.ndarray) -> np.ndarray:
         """Undamped group velocity d omega / d k by Hellmann-Feynman (real k)."""
@@ -457,7 +458,8 @@ def _ranked(ops, omega, c, k, x, keep=slice(None)) -> Waves:
     denom = np.empty(len(idx), dtype=complex)
     for j in _chunks(len(idx)):
         denom[j] = ops.dA(k[j], x[:, idx[j]])
-    phi = x[np.ix_(np.argsort(ops.order), idx)]  # sorted columns, rows as reduced DOFs
+    # sorted columns, rows as reduced DOFs (two takes: half the time of one 2-D fancy index)
+    phi = x.take(idx, axis=1).take(ops.reduced_rows, axis=0)
     return Waves(family=ops.family, omega=omega, k=k, phi=phi, denom=denom)
 
 
