@@ -150,3 +150,48 @@ def test_unfitted_share_is_added_to_the_larger_noise_variance():
         assert share[i] > 0.1 * noise[i]["std_vector"] ** 2  # a share that shows
         assert both[i]["std_vector"] ** 2 == pytest.approx(
             noise[i]["std_vector"] ** 2 + share[i], rel=1e-9)
+
+
+ENV_SD = 0.03  # decades: the sleeper mass between 0.87 and 1.15 x MS (2 SD)
+ENV_EFFECT = Effect(name="assumed_mass", title="an assumed sleeper mass", kind="spec",
+                    meaning="the sleeper mass set, not fitted", parameters=(),
+                    apply=sleeper_mass,
+                    assumed=(AssumedValue(name="ms", unit="kg", value=MS, sd=ENV_SD,
+                                          source="this test"),))
+
+
+@pytest.mark.parametrize("profile", [False, True])
+def test_final_intervals_span_the_assumed_range(profile):
+    """The chosen model's final intervals are the envelope over the assumed value's range
+    (railfem.diagnosis.envelope): each base parameter's reported 95 % interval holds its
+    estimate refitted with the sleeper mass at either end of the range, MS x 10^(+-2 SD),
+    computed here without the hook (the plain base, the mass set in its spec, started
+    from the final estimate, the final rail loss factor). The estimates move nonlinearly
+    with the mass (on these noisy data the ballast's loss factor by +0.12 and -0.10
+    decades at the ends), which a tangent at the assumed mass does not carry: its
+    intervals missed the low-mass estimates of kp, kb and eta_b (by up to 0.014
+    decades). The reported value stays
+    the fit's at the assumed mass; the interval says it spans the assumed range."""
+    from railfem.diagnosis.loop import Search, final_refit
+
+    data = prepare(g.dataset("none", 0, f=SMALL_F, level=0.05))
+    x0 = np.log10([g.TRUTH[k] for k in ("kp", "eta_p", "kb", "eta_b")])
+    ev, spec = Evaluator(), g.truth_spec()
+    chosen = refit(data, ev, spec, (ENV_EFFECT,), x0, SCALE, refine=False)
+    s = Search(data=data, model=g.MODEL, ev=ev, spec=spec, scale=SCALE, base=chosen,
+               profile_final=profile)
+    final = final_refit(s, chosen)
+    par = {p["name"]: p for p in final.parameters()}
+    for i, n in enumerate(("kp", "eta_p", "kb", "eta_b")):
+        assert par[n]["value"] == pytest.approx(10 ** final.x[i], rel=1e-12)
+    assert profile == ("eta_r" in par)
+    moved = []
+    for d in (-2 * ENV_SD, 2 * ENV_SD):
+        end = refit(data, ev, spec.replace(ms=MS * 10 ** d, eta_r=final.eta_r), (), x0,
+                    SCALE, refine=False, x_start=final.x)
+        for i, n in enumerate(("kp", "eta_p", "kb", "eta_b")):
+            lo, hi = par[n]["ci95"]
+            assert lo <= 10 ** end.x[i] <= hi, (n, d, 10 ** end.x[i], par[n])
+            moved.append(abs(end.x[i] - final.x[i]))
+        assert "spans assumed_mass's assumed ms" in par["kb"]["assumed_range"]
+    assert max(moved) > 0.05  # the ends move the estimates: a real test

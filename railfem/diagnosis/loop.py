@@ -35,7 +35,9 @@ effect (and the best pairs), score, validate on held-out data, and decide.
 6. **Decision**: the best kept model is refitted with the rail loss factor profiled and
    gated again (plausibility, as at screening: its intervals now carry the rail loss
    factor); one that fails is not kept (the verdict says why) and the next kept one is
-   refitted in its place. If the chosen model's residual is noise
+   refitted in its place; an effect's assumed values (Effect.assumed) are then varied
+   over their ranges and the intervals reported are the envelope
+   (railfem.diagnosis.envelope). If the chosen model's residual is noise
    (railfem.diagnosis.residual.structure_test) or its structured part is below
    NEGLIGIBLE_DB, the effect *explains* the residual; if structure remains it *partly
    explains* it; with no kept candidate "no candidate explains the residual". When
@@ -58,6 +60,7 @@ from railfem.diagnosis import effects as library
 from railfem.diagnosis import parallel
 from railfem.diagnosis import residual as resid
 from railfem.diagnosis.data import LATERAL_ONLY, DiagnosisData, prepare
+from railfem.diagnosis.envelope import assumed_envelope
 from railfem.diagnosis.evaluate import Evaluator, lateral_spec
 from railfem.diagnosis.gates import final_gate, held_gate, passes, plausibility
 from railfem.diagnosis.problem import BASE, DISCREPANCY, Problem, model_scale, noise_scale
@@ -471,9 +474,10 @@ def choose(s: Search, outcomes: dict, rows: list) -> tuple[Outcome | None, dict 
 def final_refit(s: Search, chosen: Outcome) -> Outcome:
     """Step 6 (second half): the chosen model refitted with the rail loss factor profiled
     from its own estimate (the profile, at least 3 kernels, redoes the best point's
-    analysis with the unfitted scatter: the start's is not kept)."""
+    analysis with the unfitted scatter: the start's is not kept); its intervals then span
+    its effects' assumed values' ranges (railfem.diagnosis.envelope)."""
     if not s.profile_final:
-        return chosen
+        return assumed_envelope(chosen)
     grid_fix = {k: (v,) for k, v in chosen.grid.items()}
     spec_c = s.spec.replace(eta_r=chosen.eta_r)
     if s.wfe and s.eta_r_steps > 0:  # the profile's first two kernels, ahead
@@ -486,8 +490,8 @@ def final_refit(s: Search, chosen: Outcome) -> Outcome:
                   grid_values=grid_fix, refine=False, x_start=chosen.x, unfitted=False,
                   bounds=s.bounds)
     start.grid_profiles = chosen.grid_profiles
-    return profile_eta_r(s.data, s.ev, s.spec, chosen.effects, start, scale,
-                         max_steps=s.eta_r_steps, bounds=s.bounds)
+    return assumed_envelope(profile_eta_r(s.data, s.ev, s.spec, chosen.effects, start,
+                                          scale, max_steps=s.eta_r_steps, bounds=s.bounds))
 
 
 def base_of(data: DiagnosisData, model: str, base: TrackSpec | None = None) -> TrackSpec:

@@ -60,13 +60,17 @@ def base_parameters(bounds=None) -> list[Parameter]:
 
 
 def Problem(*, data, evaluator, spec, effects=(), grid=None, scale=None,  # noqa: N802
-            bounds=None) -> core.Problem:
+            bounds=None, assumed=None) -> core.Problem:
     """The diagnosis's problem: railfem.identify.problem.Problem of base ``spec`` (its rail
     loss factor used as is) + ``effects`` (grid values ``grid``: {(effect, name): value})
     on the records of ``data``, scaled by ``scale`` (a constructor named as what it
-    builds)."""
+    builds). ``assumed``: {(effect, name): value} of the effects' assumed values
+    (Effect.assumed) for an envelope over their range (railfem.diagnosis.envelope): the
+    values set, their linearised terms left out of the intervals (None: the declared
+    values, their terms in)."""
     model = EffectModel(data=data, evaluator=evaluator, spec=spec, effects=tuple(effects),
-                        grid=dict(grid or {}), bounds=bounds)
+                        grid=dict(grid or {}), bounds=bounds, assumed=dict(assumed or {}),
+                        assumed_terms=assumed is None)
     return core.Problem(model, data.records, scale={} if scale is None else scale,
                         rows=core.used_rows)
 
@@ -87,6 +91,11 @@ class EffectModel:
     effects: tuple = ()
     grid: dict = field(default_factory=dict)  # {(effect, name): value}
     bounds: dict | None = None
+    #: {(effect, name): value} of assumed values set other than declared (an envelope's)
+    assumed: dict = field(default_factory=dict)
+    #: whether the assumed values' linearised terms enter the intervals (not where their
+    #: envelope carries them: railfem.diagnosis.envelope)
+    assumed_terms: bool = True
 
     def __post_init__(self):
         ps = base_parameters(self.bounds)
@@ -111,7 +120,7 @@ class EffectModel:
                 out[e][n] = v
             for e in self.effects:  # the values an effect sets and does not fit
                 for a in e.assumed:
-                    out[e.name][a.name] = a.value
+                    out[e.name][a.name] = self.assumed.get((e.name, a.name), a.value)
             self._thetas = (key, out)
         return {e: dict(v) for e, v in self._thetas[1].items()}
 
@@ -214,13 +223,15 @@ class EffectModel:
         (Effect.assumed; z the log10 of the value over the assumed one): ({record name:
         receptance at x}, [(SD, {record name: d receptance / d z})]), the support factors
         first in the order of their keys, then the assumed values; None when there are
-        none. The support factors' tangents are closed-form (when the evaluator has none
+        none (an envelope's model, ``assumed_terms`` False, leaves the assumed values
+        out). The support factors' tangents are closed-form (when the evaluator has none
         for the spec their scatter is left out, logged); an assumed value's is the central
         difference ASSUMED_STEP decades either side of it, the rest of x held."""
         th = self.thetas(x)
         got = self._support_terms(x, th)
         a0, terms = got if got is not None else (None, [])
-        assumed = [(e, a) for e in self.effects for a in e.assumed]
+        assumed = [(e, a) for e in self.effects for a in e.assumed] \
+            if self.assumed_terms else []
         if assumed and a0 is None:
             a0 = {r.name: self.evaluator.receptance(*self._where(x, th, r))
                   for r in self.data.records}

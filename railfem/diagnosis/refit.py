@@ -20,7 +20,7 @@ import contextlib
 import itertools
 import logging
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from scipy import stats
@@ -58,6 +58,10 @@ class Outcome:
     # vertex of the parabola through the best and its neighbours; profile_eta_r): the
     # profile's value without the error of its last lattice step
     profile_cost: float | None = None
+    # the ends of the effects' assumed values' ranges (railfem.diagnosis.envelope): each
+    # {"effect", "name", "value", "parameters": that end's refit's parameters()}; the
+    # intervals reported are the union of the ends' and this model's own
+    envelope: list = field(default_factory=list)
 
     @property
     def name(self) -> str:
@@ -92,6 +96,7 @@ class Outcome:
         if self.eta_r_profile is not None:
             out.append({"name": "eta_r", "group": "base", **self.eta_r_profile})
         self._joint(out)
+        self._envelope(out)
         return out + [q for e in self.effects if e.derived is not None for q in e.derived(out)]
 
     def _joint(self, out: list[dict]) -> None:
@@ -119,6 +124,33 @@ class Outcome:
             else:
                 p["ci95_joint"] = list(p["ci95"])
         self._supports(eff, float(self.analysis["t_quantile"]), t)
+
+    def _envelope(self, out: list[dict]) -> None:
+        """Each interval the union of this model's own and the envelope's ends' (the
+        effects' assumed values at the ends of their ranges, refitted), its own kept as
+        ``ci95_centre`` (``ci95_joint_centre``), ``assumed_range`` saying so."""
+        if not self.envelope:
+            return
+        ends = [{p["name"]: p for p in end["parameters"]} for end in self.envelope]
+        ranges: dict = {}
+        for end in self.envelope:
+            ranges.setdefault((end["effect"], end["name"], end["assumed"]),
+                              []).append(end["value"])
+        words = "; ".join(f"{e}'s assumed {n} from {min(v):.3g} to {max(v):.3g}"
+                          f" (at {c:.3g} and at both ends)" for (e, n, c), v in ranges.items())
+        for p in out:
+            got = [e[p["name"]] for e in ends if p["name"] in e]
+            if not got:
+                continue
+            for key in ("ci95", "ci95_joint", "support_ci95", "support_ci95_joint"):
+                ivs = [q[key] for q in got if q.get(key) is not None]
+                if p.get(key) is None or not ivs:
+                    continue
+                p[key + "_centre"] = list(p[key])
+                p[key] = [min([p[key][0]] + [iv[0] for iv in ivs]),
+                          max([p[key][1]] + [iv[1] for iv in ivs])]
+            p["assumed_range"] = (f"the 95 % interval spans {words}: the union of the "
+                                  "intervals refitted there")
 
     def _supports(self, eff: list[dict], t: float, t_joint: float) -> None:
         names = list(self.problem.box.names)
@@ -227,19 +259,23 @@ def _grid_combos(effects):
 
 def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
           screen_keep: int = 2, refine: bool = True, bounds=None, x_start=None,
-          refine_steps: int = REFINE_STEPS, unfitted: bool = True) -> Outcome:
+          refine_steps: int = REFINE_STEPS, unfitted: bool = True,
+          assumed: dict | None = None) -> Outcome:
     """Fit base + ``effects`` (see the module docstring) starting from the base vector
     x_base (BASE parameters, vector units) with the rail loss factor of ``spec``.
     grid_values: {(effect, name): values} overriding the effects' grids (e.g. only the
     sensors a record has). unfitted=False leaves the effects' unfitted scatter out of the
-    analysis (a profile point whose analysis is redone at the best one)."""
+    analysis (a profile point whose analysis is redone at the best one). assumed:
+    {(effect, name): value} of the effects' assumed values, set for an envelope over their
+    range (railfem.diagnosis.problem.Problem: their linearised terms left out)."""
     effects = tuple(effects)
     keys, values = _grid_combos(effects)
     values = [tuple((grid_values or {}).get(k, v)) for k, v in zip(keys, values)]
 
     def problem_for(combo):
         return Problem(data=data, evaluator=evaluator, spec=spec, effects=effects,
-                       grid=dict(zip(keys, combo)), scale=scale, bounds=bounds)
+                       grid=dict(zip(keys, combo)), scale=scale, bounds=bounds,
+                       assumed=assumed)
 
     results: dict = {}
     if keys and x_start is not None and all(len(v) == 1 for v in values):
@@ -423,7 +459,17 @@ def joint_uncertainty(best: Outcome, done: dict) -> None:
     if not others:
         return
     nb = min(others, key=lambda v: abs(v - le))
-    pb, pn = best.problem, done[nb].problem
+    pn = done[nb].problem
+    rail_loss_analysis(best, pn, nb)
+
+
+def rail_loss_analysis(best: Outcome, pn: core.Problem, nb: float) -> None:
+    """best.analysis redone with the rail loss factor free: the Jacobian gets the column
+    dr / d(log10 eta_r) by a difference to ``pn`` (best's problem at the rail loss
+    factor 10^nb, the other parameters held at best.x); the rail loss factor's interval
+    in best.analysis['eta_r']."""
+    le = math.log10(best.eta_r)
+    pb = best.problem
     r0 = pb.residual(best.x)
     col = (pn.residual(best.x) - r0) / (nb - le)
     J = _jacobian(pb, best.x)
@@ -433,6 +479,20 @@ def joint_uncertainty(best: Outcome, done: dict) -> None:
     analysis = _analyse(pb, box, np.append(best.x, le), J, r0, pb.clusters())
     best.analysis = dict(analysis, parameters=analysis["parameters"][:-1],
                          eta_r=analysis["parameters"][-1])
+
+
+def reanalyse(o: Outcome, nb: float | None = None) -> None:
+    """o.analysis redone at o.x on o.problem (e.g. after its model changed): with the rail
+    loss factor free against its problem at the rail loss factor 10^nb
+    (rail_loss_analysis), or on its own box when ``nb`` is None."""
+    pb = o.problem
+    if nb is not None:
+        m = pb.model
+        pn = pb.with_model(replace(m, spec=m.spec.replace(eta_r=10.0 ** nb)))
+        rail_loss_analysis(o, pn, nb)
+        return
+    o.analysis = _analyse(pb, pb.box, o.x, _jacobian(pb, o.x), pb.residual(o.x),
+                          pb.clusters())
 
 
 def _analyse(problem: core.Problem, box, v, J, r, clusters, unfitted: bool = True) -> dict:

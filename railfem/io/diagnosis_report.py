@@ -131,8 +131,12 @@ def markdown(s: dict, figs: list[str], title: str) -> str:
         if c.get("unfitted_terms"):
             L += ["", f"The intervals include what the scatter of {c['unfitted_terms']} "
                   "unfitted terms (the effect's supports outside its window at the prior's "
-                  "SD, or the spec values it assumes at their stated SD; held fixed in the "
-                  "fit) can do to the estimates."]
+                  "SD; held fixed in the fit) can do to the estimates."]
+        spans = sorted({p["assumed_range"] for p in c["parameters"] if p.get("assumed_range")})
+        if spans:
+            L += ["", "An assumed value the data cannot fix is carried by the "
+                  "envelope, not a tangent: " + "; ".join(spans) + " (the intervals at the "
+                  "assumed value itself: 'ci95_centre' in diagnosis.json)."]
         h = c["held_out"]
         L += ["", f"Held-out error (mean squared scaled residual) {h['mse_ref']:.3g} -> "
               f"{h['mse']:.3g} ({100 * h['reduction']:.0f} % lower, paired t = {h['t']:.2f}, "
