@@ -142,16 +142,18 @@ class FamilyOperators:
 
     def _block_solve(self, data):
         """The blockwise solver of the matrix with entries ``data`` on the pattern. The
-        blocks' minimum-degree orderings depend on the pattern only: found by a first
-        factorisation, then used for every solve (the blocks' transposes, which block_solver
-        factorises, laid out in that order directly), the first one included, so that a
-        result does not depend on what was solved before."""
-        def block(positions, P):
-            return sp.csc_matrix((data[positions], P.indices, P.indptr), shape=P.shape)
+        blocks' minimum-degree orderings depend on the pattern only: found once by a real
+        factorisation of K0' + M (regular), then used for every solve (the blocks'
+        transposes, which block_solver factorises, laid out in that order directly), so that
+        a result does not depend on what was solved before."""
+        def block(positions, P, values=data):
+            return sp.csc_matrix((values[positions], P.indices, P.indptr), shape=P.shape)
 
         if self._ordered is None:
             (iaa, Paa), (ipp, Ppp) = self.blocks
-            first = block_solver(block(iaa, Paa), block(ipp, Ppp), self.Z_ap, self.na)
+            regular = self.k0_data + self.m_data
+            first = block_solver(block(iaa, Paa, regular), block(ipp, Ppp, regular),
+                                 self.Z_ap, self.na)
             self._ordered = ordered_blocks(self.blocks, self.Z_ap, first.orders)
             self._perm = np.concatenate([first.orders[0], self.na + first.orders[1]])
         aa, pp, Zap, orders = self._ordered
