@@ -22,7 +22,8 @@ arithmetic. ``frozen_tail`` supplies the dropped near-field waves once per sweep
 
 Solver calls run with BLAS limited to RAILFEM_BLAS_THREADS threads (default 1, see
 ``blas_threads``). Wave sets are cached in memory per (operators' content, omega, method,
-n_waves), bounded by RAILFEM_WAVE_CACHE_MB (default 256 MB; 0 disables it), so that
+n_waves), bounded by RAILFEM_WAVE_CACHE_MB (default 512 MB; 0 disables it;
+railfem.rail.wavecache), so that
 repeated calls (a fitter changing support parameters) do not re-solve; ``clear_cache``
 empties it.
 """
@@ -30,10 +31,7 @@ from __future__ import annotations
 
 import hashlib
 import logging
-import os
 import warnings
-from collections import OrderedDict
-from contextlib import contextmanager
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,6 +41,8 @@ import scipy.sparse.linalg as spl
 
 from .sparseblocks import (BlockShiftInvert, block_solver, block_sum, column_norms,
                            diagonal_blocks, on_pattern, ordered_blocks, real_times)
+from .wavecache import (CACHE_VARIABLE, THREADS_VARIABLE,  # noqa: F401 (public names)
+                        blas_threads, cache_info, cached, clear_cache)
 from .waveguide import Waveguide, reduced
 
 log = logging.getLogger(__name__)
@@ -232,95 +232,15 @@ class FamilyOperators:
         return out
 
 
-# ----------------------------------------------------------------- BLAS threads and cache
-THREADS_VARIABLE = "RAILFEM_BLAS_THREADS"  # BLAS threads in solver calls; "none": leave as set
-CACHE_VARIABLE = "RAILFEM_WAVE_CACHE_MB"  # bound of the in-memory wave cache; 0 disables it
-# 512: a diagnosis on WFE holds the undamped pairs of its frozen tails (N x N each, 12-50 MB
-# for a 10 mm section) for the base and its discretisation variants; at 256 they were
-# evicted by the per-frequency waves and solved again (benchmarks/results/results_tests.txt)
-DEFAULT_CACHE_MB = 512.0
-_controller = None
-_cache: OrderedDict = OrderedDict()
-
-
-@contextmanager
-def blas_threads():
-    """Limit BLAS threads inside a solver call to RAILFEM_BLAS_THREADS (default 1).
-
-    One thread is fastest for these problem sizes on a shared machine (threaded OpenBLAS
-    oversubscribed a loaded 2-core machine and ran the dense solves 10-50x slower); set
-    RAILFEM_BLAS_THREADS to a number to use more, or to "none" to leave BLAS alone."""
-    global _controller
-    value = os.environ.get(THREADS_VARIABLE, "1").strip().lower()
-    if value in ("none", ""):
-        yield
-        return
-    try:
-        n = int(value)
-        if n < 1:
-            raise ValueError
-    except ValueError:
-        raise ValueError(f"{THREADS_VARIABLE}={value!r}: use a number of threads >= 1 or "
-                         "'none'") from None
-    if _controller is None:
-        from threadpoolctl import ThreadpoolController
-
-        _controller = ThreadpoolController()
-    with _controller.limit(limits=n, user_api="blas"):
-        yield
-
-
-def _cache_limit() -> float:
-    value = os.environ.get(CACHE_VARIABLE, str(DEFAULT_CACHE_MB))
-    try:
-        mb = float(value)
-        if not mb >= 0:
-            raise ValueError
-    except ValueError:
-        raise ValueError(f"{CACHE_VARIABLE}={value!r}: use a size in MB >= 0 (0 disables the "
-                         "wave cache)") from None
-    return mb * 1e6
-
-
-def _nbytes(w: Waves) -> int:
-    return w.k.nbytes + w.phi.nbytes + w.denom.nbytes
-
-
-def clear_cache() -> None:
-    """Forget every cached wave solution (waves_at and frozen_tail results)."""
-    _cache.clear()
-
-
-def cache_info() -> dict:
-    """Number of cached wave sets and their size in bytes."""
-    return {"entries": len(_cache), "bytes": sum(_nbytes(w) for w in _cache.values()),
-            "limit_bytes": _cache_limit()}
-
-
+# ----------------------------------------------------------------------------- cache
 def _cached(ops: FamilyOperators, what: tuple, solve, lossless: bool = False):
-    """solve() memoised per (operators' content, what) in a bounded LRU cache; with
-    ``lossless`` the content leaves out the loss factor (an undamped solve).
-
-    Operators with an ``extra`` stiffness (a callable, e.g. a foundation of given parameters)
-    are not cached: the callable's content cannot be keyed."""
-    limit = _cache_limit()
-    if limit <= 0 or ops.extra is not None:
+    """solve() memoised per (operators' content, what) in the wave cache
+    (railfem.rail.wavecache); with ``lossless`` the content leaves out the loss factor (an
+    undamped solve). Operators with an ``extra`` stiffness (a callable, e.g. a foundation of
+    given parameters) are not cached: the callable's content cannot be keyed."""
+    if ops.extra is not None:
         return solve()
-    key = (ops.lossless_key if lossless else ops.key, what)
-    hit = _cache.get(key)
-    if hit is not None:
-        _cache.move_to_end(key)
-        return hit
-    w = solve()
-    for arr in (w.k, w.phi, w.denom):
-        arr.flags.writeable = False  # shared between callers
-    size = _nbytes(w)
-    if size <= limit:
-        _cache[key] = w
-        total = sum(_nbytes(v) for v in _cache.values())
-        while total > limit:
-            total -= _nbytes(_cache.popitem(last=False)[1])
-    return w
+    return cached((ops.lossless_key if lossless else ops.key, what), solve)
 
 
 # ------------------------------------------------------------------------ eigensolvers
