@@ -7,7 +7,12 @@ k_roll with their 95 % intervals, whether they hold the truth, BIC against the b
 whether the candidate was kept, and the grip's variance part by part (noise: the
 model-based one; robust: the cluster-robust one; unfitted: the assumed loss factor's
 term, roll_restraint.ETA_ROLL_SD; discrepancy: the model-form ensemble's terms, with each
-variant's shift of the grip). JSON lines, then a table.
+variant's shift of the grip; for a kept model the final analysis's, which leaves the
+assumed loss factor's term out) and its envelope over the assumed loss factor's range
+(railfem.diagnosis.envelope: the grip at 0.025 and 0.4, the union of the intervals); for
+a candidate not kept, whose screening row is what the diagnosis reports, the envelope
+is computed on its screening refit as well (``envelope``, not reported by the
+diagnosis). JSON lines, then a table.
 
     export OPENBLAS_NUM_THREADS=1 RAILFEM_CACHE=/tmp/cache
     nice -n 5 python -m benchmarks.bench_roll_coverage OUT.jsonl 0-9
@@ -16,6 +21,7 @@ variant's shift of the grip). JSON lines, then a table.
     ... OUT.jsonl 2 --eta-roll 0.2         (another assumed loss factor of the grip)
     python -m benchmarks.bench_roll_coverage --summed OUT.jsonl   (variants summed)
     python -m benchmarks.bench_roll_coverage --table OUT.jsonl
+    python -m benchmarks.bench_roll_coverage --envelope OUT.jsonl (the assumed range)
 
 ``--bands``: 'lateral' (generators.LATERAL_BANDS, 100-630 Hz, default) or 'small'
 (100-400 Hz, the test's SMALL_BANDS). CPU seconds per run are recorded (the loaded
@@ -67,16 +73,38 @@ class Parts:
         return out
 
 
+def ends(outcome) -> dict:
+    """The grip's envelope (railfem.diagnosis.envelope) of a refitted roll_restraint
+    model: its interval at the assumed loss factor alone, the grip refitted at each end,
+    and the union (the reported interval)."""
+    par = {p["name"]: p for p in outcome.parameters()}
+    grip = par[GRIP]
+    return {"grip_ci95_centre": grip.get("ci95_centre"), "grip_ci95": grip["ci95"],
+            "k_roll_ci95": par["roll_restraint.k_roll"]["ci95"],
+            "ends": [{"eta_roll": e["value"], "cost": e["cost"],
+                      "grip": next(p["value"] for p in e["parameters"]
+                                   if p["name"] == GRIP)} for e in outcome.envelope]}
+
+
 def run(seed: int, bands: str, level: float, form: str, case: str = "roll_restraint",
         eta_roll: float | None = None) -> dict:
     from dataclasses import replace
 
     from benchmarks.blind import generators as g
-    from railfem.diagnosis import diagnose, effects
+    from railfem.diagnosis import diagnose, effects, loop
+    from railfem.diagnosis.envelope import assumed_envelope
     from railfem.identify import uncertainty
 
     parts = Parts(uncertainty)
     uncertainty.analyse = parts
+    screened, screen_one = {}, loop.screen_one
+
+    def keep(s, e):  # the screening's outcomes (the diagnosis keeps their rows only)
+        o, row = screen_one(s, e)
+        screened[o.name] = o
+        return o, row
+
+    loop.screen_one = keep
     eff = effects.REGISTRY["roll_restraint"]
     if eta_roll is not None:  # another assumed loss factor of the grip
         effects.REGISTRY["roll_restraint"] = replace(
@@ -92,6 +120,7 @@ def run(seed: int, bands: str, level: float, form: str, case: str = "roll_restra
     finally:
         uncertainty.analyse = parts.orig
         effects.REGISTRY["roll_restraint"] = eff
+        loop.screen_one = screen_one
     best = min(d.candidates, key=lambda row: row["bic"])
     fitted = d.chosen.parameters() if d.chosen is not None else best["parameters"]
     par = {p["name"].split(".")[-1]: p for p in fitted}
@@ -105,7 +134,12 @@ def run(seed: int, bands: str, level: float, form: str, case: str = "roll_restra
             "grip_ci95": par["grip"]["ci95"], "k_roll": par["k_roll"]["value"],
             "k_roll_ci95": [lo, hi],
             "inside": None if truth is None else bool(lo <= truth <= hi),
-            "parts": parts.last}
+            "parts": parts.last,
+            # the envelope of the chosen model's final intervals, or (not kept: the
+            # screening row is reported) what it would be on the screening's refit
+            "envelope": (ends(d.chosen) if d.chosen is not None else
+                         ends(assumed_envelope(screened["roll_restraint"]))
+                         if "roll_restraint" in screened else None)}
 
 
 def seeds(text: str) -> list[int]:
@@ -168,9 +202,37 @@ def summed(path: str, n_aspects: int = 3) -> str:
     return "\n".join(out)
 
 
+def envelope_table(path: str) -> str:
+    """Per run: the grip reported, its interval at the assumed loss factor alone
+    (``ci95_centre``), the grip refitted at its range's ends and the envelope; for a
+    candidate not kept (the screening row is what is reported) the envelope computed on
+    the screening's refit, and whether k_roll's envelope holds the truth."""
+    out = ["| seed | noise | case | kept | grip | grip 95 % at 0.1 | grip at 0.025 / 0.4 | "
+           "grip envelope | k_roll envelope (N m/rad) | reported inside | envelope inside |",
+           "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in (json.loads(line) for line in open(path) if line.strip()):
+        e = r.get("envelope")
+        if not e:
+            continue
+        c0, c1 = e["grip_ci95_centre"] or [np.nan, np.nan]
+        g0, g1 = e["grip_ci95"]
+        k0, k1 = e["k_roll_ci95"]
+        ends_ = " / ".join(f"{x['grip']:.3f}" for x in e["ends"])
+        if r.get("case", "roll_restraint") == "none":
+            env_in = "-"
+        else:
+            env_in = "yes" if k0 <= 1e6 <= k1 else "**out**"
+        out.append(f"| {r['seed']} | {r['level']:g} | {r.get('case', 'roll_restraint')} | "
+                   f"{'yes' if r['kept'] else 'no'} | {r['grip']:.3f} | {c0:.3f}-{c1:.3f} | "
+                   f"{ends_} | {g0:.3f}-{g1:.3f} | {k0:.3g}-{k1:.3g} | {inside(r)} | "
+                   f"{env_in} |")
+    return "\n".join(out)
+
+
 def main(argv: list[str]) -> None:
-    if argv[0] in ("--table", "--summed"):
-        print((table if argv[0] == "--table" else summed)(argv[1]))
+    if argv[0] in ("--table", "--summed", "--envelope"):
+        print({"--table": table, "--summed": summed,
+               "--envelope": envelope_table}[argv[0]](argv[1]))
         return
     opts = dict(zip(argv[2::2], argv[3::2]))
     for s in seeds(argv[1]):
