@@ -41,7 +41,9 @@ parameters includes what that scatter can do to them (railfem.identify.uncertain
 enters ``apply`` as theta[name] at its value in the fit, and its uncertainty enters the
 intervals of the fitted parameters as an unfitted random term, as the unfitted support
 factors do (the residual's change per decade of the value times its SD, by a central
-difference at the estimate: railfem.diagnosis.problem.EffectModel.unfitted_tangents).
+difference at the estimate: railfem.diagnosis.problem.EffectModel.unfitted_tangents) in
+the screening; the chosen model's final intervals are instead the envelope over the
+value's range, centre x 10^(+-2 SD) (railfem.diagnosis.envelope).
 ``derived(parameters) -> [entries]`` (optional) adds the physical quantities a fitted
 parameter stands for to the reported parameters (group 'derived'; e.g. the roll stiffness
 of roll_restraint's grip share, with an interval open at the top).

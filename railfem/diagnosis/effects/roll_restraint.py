@@ -40,9 +40,12 @@ held rigidly for every rail seat of the library. The BIC and held-out gates do n
 
 **The loss factor is not fitted**: eta_roll is fixed at ETA_ROLL = 0.1 (assumed: the lower
 end of the clips' 0.1-0.2 assumed in docs/model.md; a grip of steel clips and polyamide
-guide plates is not a rubber pad), and its uncertainty enters the intervals as an unfitted
-random term (Effect.assumed: ETA_ROLL_SD = 0.3 decades, a factor 2; railfem.diagnosis.
-problem.EffectModel.unfitted_tangents). The SD: no measured roll loss factor of a
+guide plates is not a rubber pad), and its uncertainty enters the intervals
+(Effect.assumed: ETA_ROLL_SD = 0.3 decades, a factor 2): as a linearised unfitted term
+in the screening (railfem.diagnosis.problem.EffectModel.unfitted_tangents), as the
+envelope over 0.025-0.4 in the chosen model's final intervals (railfem.diagnosis.
+envelope: the grip is not linear in it, 0.011-0.019 up at 0.025 and 0.06-0.09 down at
+0.4 on the blind lateral data). The SD: no measured roll loss factor of a
 fastening is known to us; the loss factors published for whole fastenings differ by a
 factor 5 from track to track (0.05-0.25 over the five tracks of the presets' Table 1,
 docs/presets.md), elastomer pads are quoted at 0.08 (natural rubber) to 0.15-0.2 (damped
