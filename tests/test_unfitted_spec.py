@@ -195,3 +195,24 @@ def test_final_intervals_span_the_assumed_range(profile):
             moved.append(abs(end.x[i] - final.x[i]))
         assert "spans assumed_mass's assumed ms" in par["kb"]["assumed_range"]
     assert max(moved) > 0.05  # the ends move the estimates: a real test
+
+
+def test_an_envelope_that_cannot_be_refitted_keeps_the_tangent(caplog):
+    """An end of the range the model cannot be evaluated at (here: the effect refuses any
+    mass but the assumed one) does not cost the candidate its final refit: its intervals
+    keep the linearised term, and the log says so."""
+    from railfem.diagnosis.envelope import assumed_envelope
+
+    def only_assumed(spec, theta, record=None):
+        if float(theta.get("ms", MS)) != MS:
+            raise ValueError("no other mass")
+        return sleeper_mass(spec, theta, record)
+
+    eff = Effect(name="assumed_mass", title="t", kind="spec", meaning="m", parameters=(),
+                 apply=only_assumed, assumed=ENV_EFFECT.assumed)
+    data = prepare(g.dataset("none", 0, f=SMALL_F, level=0.05))
+    x0 = np.log10([g.TRUTH[k] for k in ("kp", "eta_p", "kb", "eta_b")])
+    o = refit(data, Evaluator(), g.truth_spec(), (eff,), x0, SCALE, refine=False)
+    got = assumed_envelope(o)
+    assert got is o and not o.envelope and o.analysis["unfitted_terms"] == 1
+    assert "keep their linearised terms" in caplog.text

@@ -21,6 +21,8 @@ import logging
 import math
 from dataclasses import replace
 
+import numpy as np
+
 from railfem.diagnosis.problem import BASE
 from railfem.diagnosis.refit import Outcome, reanalyse, refit
 
@@ -54,10 +56,21 @@ def assumed_envelope(o: Outcome) -> Outcome:
     """``o`` (a chosen model's final refit) with its intervals the envelope over its
     effects' assumed values (see the module docstring): a new Outcome, its analysis
     redone without the assumed values' linearised terms, ``envelope`` holding each end's
-    value and parameters; ``o`` itself when no effect assumes a value."""
-    todo = ends(o.effects)
-    if not todo:
+    value and parameters; ``o`` itself (its linearised terms) when no effect assumes a
+    value or (logged) when an end cannot be refitted."""
+    if not ends(o.effects):
         return o
+    try:
+        return _envelope(o)
+    except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:
+        log.warning("diagnosis: %s could not be refitted at the ends of its assumed "
+                    "values' ranges (%s): its intervals keep their linearised terms",
+                    o.name, exc)
+        return o
+
+
+def _envelope(o: Outcome) -> Outcome:
+    todo = ends(o.effects)
     pb, nb = o.problem, rail_loss_neighbour(o)
     m = pb.model
     grid = {k: (v,) for k, v in o.grid.items()}
