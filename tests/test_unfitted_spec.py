@@ -199,9 +199,9 @@ def test_final_intervals_span_the_assumed_range(profile):
 
 def test_an_envelope_that_cannot_be_refitted_keeps_the_tangent(caplog):
     """An end of the range the model cannot be evaluated at (here: the effect refuses any
-    mass 1 % away from the assumed one) does not cost the candidate its final refit: its intervals
-    keep the linearised term, and the log says so. (It still evaluates the mass 0.001
-    decades either side for the term's tangent.)"""
+    mass 1 % away from the assumed one, which lets the tangent's 0.001-decade steps
+    through) does not cost the candidate its final refit: its intervals keep the
+    linearised term, and the log says so."""
     from railfem.diagnosis.envelope import assumed_envelope
 
     def only_assumed(spec, theta, record=None):
