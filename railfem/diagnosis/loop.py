@@ -344,7 +344,11 @@ def screen_one(s: Search, e) -> tuple[Outcome, dict]:
     o = screen_single(s, e)
     gate = held_gate(s.base, o, pred_ref=s.pred_base)
     ok, why = plausibility(o)
-    row = _row(o, s.base, s.base, gate, ok, why)
+    # the row's intervals span an assumed value's range as a chosen model's do (the
+    # envelope keeps the estimate, the cost and hence every score and gate): a candidate
+    # best by BIC but not kept reports them, and its tangent at the centre missed the
+    # truth where the response is curved in the assumed value (roll_restraint)
+    row = _row(assumed_envelope(o), s.base, s.base, gate, ok, why)
     row["seconds"] = time.perf_counter() - te
     return o, row
 
