@@ -1,13 +1,14 @@
 """The chosen model's intervals over its effects' assumed values: an envelope, not a tangent.
 
 An effect may set a spec value the data cannot fix, with the standard deviation of its
-log10 (railfem.diagnosis.effects.AssumedValue; roll_restraint's grip loss factor). In the
-screening its uncertainty enters the intervals as a linearised unfitted term (the
-residual's change per decade at the assumed value times its SD:
-railfem.diagnosis.problem.EffectModel.unfitted_tangents). Where the estimates are not
+log10 (railfem.diagnosis.effects.AssumedValue; roll_restraint's grip loss factor). A
+screening refit's own analysis (which its plausibility gate reads) carries it as a
+linearised unfitted term (the residual's change per decade at the assumed value times its
+SD: railfem.diagnosis.problem.EffectModel.unfitted_tangents). Where the estimates are not
 linear in the value this term is too small on one side (the grip of roll_restraint on
 blind lateral data moves 0.029 per decade below its assumed loss factor and 0.069 above).
-The chosen model's final intervals therefore take the envelope instead: the model is
+The intervals a user reads (a screening row's, railfem.diagnosis.loop.screen_one, and the
+chosen model's final ones) therefore take the envelope instead: the model is
 refitted with the value at each end of its range, centre x 10^(+-ENVELOPE_SD x SD),
 starting from the centre's estimate (the rail loss factor and any grid value held at the
 centre's), each end's intervals are computed as the centre's (the rail loss factor free
