@@ -175,3 +175,46 @@ def test_the_chosen_models_base_intervals_carry_its_own_variants_shift():
     assert _half_width(kp) >= 0.7 * _half_width_of(clean.base, "kp"), kp
     eta_p = next(p for p in d.chosen.parameters() if p["name"] == "eta_p")
     assert _inside(eta_p, "eta_p"), eta_p
+
+
+def test_a_grid_parameters_t_quantile_counts_the_chosen_models_variants_once():
+    """The chosen model's discrepancy columns (model_scale) are the base's three variants
+    and the same three at its own estimate: six columns, three variants. Student's t of a
+    grid parameter's widening (refit.rewiden_grid, discrepancy_terms) takes three degrees
+    of freedom, not six (t 3.18 against 2.45)."""
+    from types import SimpleNamespace
+
+    from scipy import stats
+
+    from railfem.diagnosis.intervals import discrepancy_terms, distinct_variants
+    from railfem.diagnosis.problem import MODEL_VARIANT
+
+    names = ("straight edges", "mesh 15 mm", "node springs 8")
+    N6 = np.random.default_rng(1).standard_normal((40, 6))
+
+    def problem(labels, N):
+        return SimpleNamespace(scale=SimpleNamespace(discrepancy=SimpleNamespace(
+            variants=labels)), discrepancy_columns=lambda: N)
+
+    joined = problem(names + tuple(v + MODEL_VARIANT for v in names), N6)
+    assert distinct_variants(joined, N6) == 3
+    assert distinct_variants(problem(names, N6[:, :3]), N6[:, :3]) == 3
+    assert distinct_variants(problem(names, N6), N6) is None  # per-cell columns
+    k = stats.t.ppf(0.975, 3) / stats.t.ppf(0.975, 200)
+    np.testing.assert_allclose(discrepancy_terms(joined, 200), N6 * k, rtol=1e-12)
+
+
+def test_a_pads_variants_refine_its_rows():
+    """Each discretisation variant of a track with a pad of finite length gives the pad
+    one more spring row (a refinement, as a finer mesh), whatever its rows: a pad of two
+    rows (the pad_length effect's) is compared with three, never with one row (which is
+    no discretisation of a pad: it moved a chosen 0.18 m pad's length by +-0.2 m); point
+    supports keep their rows."""
+    import railfem as rf
+    from railfem.identify import discrepancy
+
+    for rows in (1, 2, 3):
+        spec = rf.preset("site").replace(pad_length=0.15, n_rows=rows)
+        assert [s.n_rows for _, s in discrepancy.variants(spec)] == [rows + 1] * 3
+    point = rf.preset("site").replace(pad_length=0.0)
+    assert {s.n_rows for _, s in discrepancy.variants(point)} == {point.n_rows}

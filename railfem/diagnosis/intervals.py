@@ -73,16 +73,24 @@ def discrepancy_terms(problem, dof: int, level: float = 0.975):
     0.5): what they lack is the bias of the grip's assumed loss factor, to which the grip
     is convex (benchmarks/results/results_roll_restraint.md)."""
     N = problem.discrepancy_columns()
-    disc = getattr(problem.scale, "discrepancy", None)
-    labels = tuple(getattr(disc, "variants", ()) or ())
-    n_var = len(labels)
-    if N is None or not n_var or N.shape[1] != n_var:  # per-cell columns: as they are
+    n_var = distinct_variants(problem, N)
+    if n_var is None:  # per-cell columns: as they are
         return N
-    # the variants evaluated on a chosen model as well (model_scale) are the same
-    # variants: Student's t over how many there are
-    n_var = len({v.removesuffix(MODEL_VARIANT) for v in labels})
     k = float(stats.t.ppf(level, n_var) / stats.t.ppf(level, max(int(dof), 1)))
     return N * max(k, 1.0)
+
+
+def distinct_variants(problem, N) -> int | None:
+    """How many discretisation variants the discrepancy columns N of ``problem`` sample
+    (Problem.discrepancy_columns: one column per variant label), the variants evaluated
+    on a chosen model as well (model_scale, labels ending in MODEL_VARIANT) counted once:
+    they are the same variants at another point, and Student's t is over how many
+    variants there are. None when N is not one column per variant label."""
+    disc = getattr(problem.scale, "discrepancy", None)
+    labels = tuple(getattr(disc, "variants", ()) or ())
+    if N is None or not labels or N.shape[1] != len(labels):
+        return None
+    return len({v.removesuffix(MODEL_VARIANT) for v in labels})
 
 
 def widen(ci, value, var_shift: float, n_variants: int, level: float = 0.975) -> list:

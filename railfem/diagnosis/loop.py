@@ -66,7 +66,7 @@ from railfem.diagnosis.gates import final_gate, held_gate, passes, plausibility
 from railfem.diagnosis.problem import BASE, DISCREPANCY, Problem, model_scale, noise_scale
 from railfem.diagnosis.rail_loss import (ETA_R_LATTICE, eta_r_interval, joint_profile,
                                          profile_eta_r)
-from railfem.diagnosis.refit import REFINE_STEPS, Outcome, refit
+from railfem.diagnosis.refit import REFINE_STEPS, Outcome, refit, rewiden_grid
 from railfem.diagnosis.verdict import decide
 from railfem.identify.base import ETA_R_RANGE, default_base, describe_base
 from railfem.spec import TrackSpec, model_kind
@@ -494,6 +494,7 @@ def final_refit(s: Search, chosen: Outcome) -> Outcome:
                   grid_values=grid_fix, refine=False, x_start=chosen.x, unfitted=False,
                   bounds=s.bounds)
     start.grid_profiles = chosen.grid_profiles
+    start.grid_profiles = rewiden_grid(start)  # the chosen model's own variants' share
     return assumed_envelope(profile_eta_r(s.data, s.ev, s.spec, chosen.effects, start,
                                           scale, max_steps=s.eta_r_steps, bounds=s.bounds))
 

@@ -29,7 +29,7 @@ from railfem.diagnosis.problem import BASE, Box, Problem, regrid
 from railfem.identify import problem as core
 from railfem.identify import uncertainty
 from railfem.identify.problem import parabola_step
-from railfem.diagnosis.intervals import (discrepancy_terms, grid_inflation,
+from railfem.diagnosis.intervals import (discrepancy_terms, distinct_variants, grid_inflation,
                                          grid_shift_variance, interval_from_profile, widen)
 from railfem.params import Parameter
 
@@ -329,7 +329,8 @@ def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
                 (null[0] - r) / null[1]
             Nd = pb.discrepancy_columns()
             prof["discrepancy_var"] = grid_shift_variance(J, r, secant, Nd)
-            prof["discrepancy_terms"] = 0 if Nd is None else int(Nd.shape[1])
+            prof["discrepancy_terms"] = 0 if Nd is None else \
+                (distinct_variants(pb, Nd) or int(Nd.shape[1]))
         prof.update(interval_from_profile(prof, s2 * prof.get("inflation", 1.0)))
         if not prof["integer"]:
             _close_profile(prof, keys.index(k), best, values, results, problem_for,
@@ -391,6 +392,37 @@ def _null(effects, key, best, j, problem_for, x):
         return problem_for(best[:j] + (v0,) + best[j + 1:]).residual(x), v0 - best[j]
     except (ValueError, np.linalg.LinAlgError):
         return None
+
+
+def rewiden_grid(o: Outcome) -> dict:
+    """``o``'s grid profiles with their model-form share taken from ``o``'s own problem:
+    the discrepancy columns of its scale (a chosen model's: model_scale, its own variants
+    at its estimate joined to the base's), projected on the secant from the parameter's
+    null value to the estimate (grid_shift_variance), each profile interval widened again
+    by it. The screening's profiles, which the final refit inherits (it fixes the grid
+    values), carried the base's variants only, and for a pad those sample no pad
+    discretisation: on cross-model data of a 0.16 m pad in four spring rows the
+    estimator's two rows gave 0.18 m with an interval from 0.162 m, on every seed run.
+    New dicts; ``o``'s own are not changed."""
+    pb, x = o.problem, o.x
+    Nd = pb.discrepancy_columns()
+    todo = [k for k, p in o.grid_profiles.items() if not p["integer"] and "ci95_profile" in p]
+    if Nd is None or not todo:
+        return o.grid_profiles
+    r, J = pb.residual(x), _jacobian(pb, x)
+    keys, combo = list(o.grid), tuple(o.grid.values())
+    n = distinct_variants(pb, Nd) or int(Nd.shape[1])
+    out = dict(o.grid_profiles)
+    for key in todo:
+        null = _null(o.effects, key, combo, keys.index(key),
+                     lambda c: regrid(pb, dict(zip(keys, c))), x)
+        if null is None:
+            continue
+        var = grid_shift_variance(J, r, (null[0] - r) / null[1], Nd)
+        prof = out[key]
+        out[key] = dict(prof, discrepancy_var=var, discrepancy_terms=n,
+                        ci95=widen(prof["ci95_profile"], prof["value"], var, n))
+    return out
 
 
 def profile_inflation(o: Outcome, key, prof: dict) -> float:

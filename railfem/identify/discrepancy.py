@@ -67,7 +67,13 @@ WFE_VARIANTS = ("straight edges", "mesh 15 mm", "node springs 8")
 #: variants of a beam model: its section constants from another mesh or the catalogue
 BEAM_VARIANTS = ("constants: catalogue", "constants: mesh 15 mm",
                  "constants: straight 7.5 mm mesh")
-PAD_ROWS = (1, 3)  # rows of a pad of finite length the variants alternate between
+#: a pad of finite length is discretised into spring rows; each variant also gives it this
+#: many more rows (a refinement, as a finer mesh: the other form of a pad). Alternating
+#: with one row, the variants at a chosen pad of two rows moved its length by +-0.2 m
+#: (one row is no discretisation of a 0.18 m pad); one more row moved it 0.006 m, and
+#: the pad length of cross-model data of a pad in four rows (0.18 m for 0.16 m) was
+#: then inside its interval (benchmarks/results/results_blind_cross.md)
+PAD_ROWS_REFINED = 1
 
 
 @dataclass(frozen=True, kw_only=True, eq=False)
@@ -146,14 +152,14 @@ def none() -> Discrepancy:
 def variants(spec, labels=None) -> list[tuple[str, object]]:
     """[(label, spec)]: ``spec`` in the variants of its model kind (WFE_VARIANTS or
     BEAM_VARIANTS, or ``labels`` from them); a pad of finite length also changes its rows
-    (PAD_ROWS: the one of them spec does not use)."""
+    (PAD_ROWS_REFINED more rows)."""
     labels = (WFE_VARIANTS if spec.kind.is_wfe else BEAM_VARIANTS) if labels is None \
         else tuple(labels)
     out = []
     for lab in labels:
         s = _variant(spec, lab)
         if spec.pad_length > 0 and spec.kind.is_discrete:
-            s = s.replace(n_rows=PAD_ROWS[1] if spec.n_rows == PAD_ROWS[0] else PAD_ROWS[0])
+            s = s.replace(n_rows=spec.n_rows + PAD_ROWS_REFINED)
         out.append((lab, s))
     return out
 
