@@ -20,7 +20,6 @@ mobilities converge. Responses are read at single nodes or as patch averages.
 from __future__ import annotations
 
 import logging
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -146,11 +145,10 @@ def head_patch(guide: Waveguide, width: float = 0.02, direction: str = "z") -> L
 
 
 class FamilyResponse:
-    """Projections of loads and responses on one family, built once per sweep; ``ops``:
-    the family's operators if already built (default: built here)."""
+    """Projections of loads and responses on one family, built once per sweep."""
 
-    def __init__(self, guide, family, force_w, resp_w, ops: FamilyOperators | None = None):
-        self.ops = FamilyOperators(guide, family) if ops is None else ops
+    def __init__(self, guide, family, force_w, resp_w):
+        self.ops = FamilyOperators(guide, family)
         T = guide.families[family].T
         comp = guide.families[family].component
         self.flip = np.where(comp == 0, -1.0, 1.0)
@@ -165,33 +163,6 @@ class FamilyResponse:
         f, r = self._scale
         return bool(np.abs(self.F).max(initial=0.0) > 1e-9 * f
                     and np.abs(self.R).max(initial=0.0) > 1e-9 * r)
-
-
-# FamilyOperators of the guides free_receptance saw last, per family: id(guide) -> (weak
-# reference, {family: operators}); an entry goes when its guide is garbage collected.
-_OPERATORS: dict = {}
-_OPERATORS_KEPT = 4
-
-
-def _free_operators(guide: Waveguide, family: str) -> FamilyOperators:
-    """The family's operators for free_receptance, built once per guide (object): a
-    receptance computed frequency by frequency (a fit, a benchmark) then builds its matrices
-    and finds its orderings once, as one sweep does. Only free_receptance uses them (no
-    foundation stiffness is ever set on them)."""
-    key = id(guide)
-    entry = _OPERATORS.get(key)
-    if entry is None or entry[0]() is not guide:
-        def forget(ref, key=key):
-            if _OPERATORS.get(key, (None,))[0] is ref:
-                del _OPERATORS[key]
-
-        entry = _OPERATORS[key] = (weakref.ref(guide, forget), {})
-        while len(_OPERATORS) > _OPERATORS_KEPT:
-            del _OPERATORS[next(iter(_OPERATORS))]
-    ops = entry[1].get(family)
-    if ops is None:
-        ops = entry[1][family] = FamilyOperators(guide, family)
-    return ops
 
 
 def free_receptance(guide: Waveguide, frequency, force: list[Location], response: list[Location],
@@ -228,8 +199,8 @@ def free_receptance(guide: Waveguide, frequency, force: list[Location], response
             raise ValueError(f"{name} must be a finite length >= 0 m, got {val!r}")
     Fw = np.column_stack([loc.weights for loc in force])
     Rw = np.column_stack([loc.weights for loc in response])
-    fams = [fr for fr in (FamilyResponse(guide, fam, Fw, Rw, _free_operators(guide, fam))
-                          for fam in guide.families) if fr.active]
+    fams = [fr for fr in (FamilyResponse(guide, fam, Fw, Rw) for fam in guide.families)
+            if fr.active]
     out = np.zeros((len(f), len(response), len(x), len(force)), dtype=complex)
     tails = {fr.ops.family: frozen_tail(fr.ops, 2 * np.pi * f.min(), n_waves)
              for fr in fams if tail and method == "shift-invert"}
