@@ -25,7 +25,7 @@ from dataclasses import replace
 import numpy as np
 
 from railfem.diagnosis.problem import BASE
-from railfem.diagnosis.refit import Outcome, reanalyse, refit
+from railfem.diagnosis.refit import Outcome, nearest_rail_loss, reanalyse, refit
 
 log = logging.getLogger(__name__)
 
@@ -47,10 +47,7 @@ def rail_loss_neighbour(o: Outcome) -> float | None:
     prof = o.eta_r_profile
     if not prof or len(prof.get("values", ())) < 2:
         return None
-    le = round(math.log10(o.eta_r), 6)
-    others = [round(math.log10(v), 6) for v in prof["values"]]
-    others = [v for v in others if abs(v - le) > 5e-7]
-    return min(others, key=lambda v: abs(v - le)) if others else None
+    return nearest_rail_loss(o.eta_r, [round(math.log10(v), 6) for v in prof["values"]])
 
 
 def assumed_envelope(o: Outcome) -> Outcome:

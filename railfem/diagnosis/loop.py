@@ -494,7 +494,7 @@ def final_refit(s: Search, chosen: Outcome) -> Outcome:
                   grid_values=grid_fix, refine=False, x_start=chosen.x, unfitted=False,
                   bounds=s.bounds)
     start.grid_profiles = chosen.grid_profiles
-    start.grid_profiles = rewiden_grid(start)  # the chosen model's own variants' share
+    start.grid_profiles = rewiden_grid(start)  # their model-form share from `scale`
     return assumed_envelope(profile_eta_r(s.data, s.ev, s.spec, chosen.effects, start,
                                           scale, max_steps=s.eta_r_steps, bounds=s.bounds))
 

@@ -484,15 +484,18 @@ def joint_uncertainty(best: Outcome, done: dict) -> None:
     """Intervals of the other parameters with the rail loss factor free: the Jacobian gets
     a column dr/d(log10 eta_r) by a difference to the nearest other kernel (the other
     parameters held), and the analysis is redone on the extended box."""
-    # the profile's keys are log10(eta_r) rounded to 1e-6: compare on that lattice (an
-    # unrounded best value once picked its own key as the neighbour: a zero column)
-    le = math.log10(best.eta_r)
-    others = [v for v in done if abs(v - round(le, 6)) > 5e-7]
-    if not others:
-        return
-    nb = min(others, key=lambda v: abs(v - le))
-    pn = done[nb].problem
-    rail_loss_analysis(best, pn, nb)
+    nb = nearest_rail_loss(best.eta_r, done)
+    if nb is not None:
+        rail_loss_analysis(best, done[nb].problem, nb)
+
+
+def nearest_rail_loss(eta_r: float, lattice) -> float | None:
+    """The value of ``lattice`` (log10 rail loss factors, rounded to 1e-6 as the profile's
+    keys are) nearest to log10(eta_r) other than its own, or None. Compared on that
+    lattice: an unrounded value once picked its own key as the neighbour (a zero column)."""
+    le = math.log10(eta_r)
+    others = [v for v in lattice if abs(v - round(le, 6)) > 5e-7]
+    return min(others, key=lambda v: abs(v - le)) if others else None
 
 
 def rail_loss_analysis(best: Outcome, pn: core.Problem, nb: float) -> None:
