@@ -317,7 +317,7 @@ def screen_single(s: Search, e) -> Outcome:
     """Step 3 for one effect: refitted with the base parameters; with a beam model the rail
     loss factor profiled (not for random effects: only if chosen), and a kernel grid (pad
     length) profiled jointly with it when the candidate already beats the base; with a WFE
-    model a support effect that beats the base gets a short rail-loss profile."""
+    model a support or section effect that beats the base gets a short rail-loss profile."""
     o = refit(s.data, s.ev, s.spec, (e,), s.x_base, s.scale, bounds=s.bounds,
               grid_values=grid_values(e, s.data, s.model), refine_steps=s.refine_steps)
     if s.profiles and e.prior is None:
@@ -329,10 +329,13 @@ def screen_single(s: Search, e) -> Outcome:
             o2 = joint_profile(s.data, s.ev, s.spec, e, o, s.scale,
                                grid_values(e, s.data, s.model), bounds=s.bounds)
             o = o2 if o2.cost < o.cost else o
-    elif s.wfe and s.profile_final and library.support_only(e) and o.bic < s.base.bic:
+    elif s.wfe and s.profile_final and library.rail_loss_traded(e) and o.bic < s.base.bic:
         # the base's rail loss factor took up part of any added damping: held there, a
         # damping effect lost to a more flexible one (foot damping to rail_damper); a short
-        # profile on a coarse lattice, its kernels (~5 s each) shared by the candidates
+        # profile on a coarse lattice, its kernels (~5 s each) shared by the candidates.
+        # A changed section (at its best grid value) as well: near a cut-on the base
+        # widens the misplaced peak with rail loss, and held there the geometry's gain
+        # failed the held-out test (cross-model foot, 2 of 4 seeds); its kernels are its own
         o = profile_eta_r(s.data, s.ev, s.spec, (e,), o, s.scale, max_steps=3, step=0.1,
                           refine=False, bounds=s.bounds)
     return o

@@ -209,6 +209,20 @@ def support_only(e: Effect) -> bool:
             and not set(e.needs) & {"deviations", "lateral", "wfe"})
 
 
+def changes_section(e: Effect) -> bool:
+    """An effect that changes the rail's cross-section (a kernel grid of section shapes,
+    WFE only): each of its values is a rail of its own."""
+    return e.kind == "spec" and e.prior is None and bool(e.grid) and "wfe" in e.needs
+
+
+def rail_loss_traded(e: Effect) -> bool:
+    """An effect the base's rail loss factor can stand in for on a WFE track, whose
+    screening therefore frees it (railfem.diagnosis.loop.screen_single): added damping at
+    the supports (support_only) or a changed section, whose moved cut-on the base widens
+    with rail loss."""
+    return support_only(e) or changes_section(e)
+
+
 def deviation_refusal(kind) -> str:
     """Why an effect with deviating supports (needs 'deviations') cannot be tried on the
     model kind ``kind`` (railfem.spec.ModelKind); '' where it can: the discrete tracks
