@@ -90,15 +90,15 @@ def test_the_gate_tells_a_thicker_foot_from_the_other_meshs_cut_on():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [0, pytest.param(1, marks=pytest.mark.xfail(
-    strict=False, reason="held-out paired test at screening p = 0.026 > 0.01 (reduction "
-                         "59 %, z^2 along the discrepancy 129): the gain is confined to "
-                         "the cut-on bands, a fifth of the held-out cells"))])
+@pytest.mark.parametrize("seed", [0, 1])
 def test_thicker_foot_on_cross_model_data(seed):
     """Every position, section_geometry against pad_frequency (seed 0 measured: named,
     estimate 3.52 mm, 95 % interval 2.42-4.61 mm (profile alone 3.30-3.72 mm, the
     variants' shift SD 0.34 mm), held-out error down 82 %, z^2 along the discrepancy 565
-    against a threshold of 10.1)."""
+    against a threshold of 10.1). Seed 1 failed the held-out test (p = 0.026) while the
+    screening held the rail loss factor at the base's, which had widened the misplaced
+    cut-on (0.0245 for a truth of 0.02); with it freed (railfem.diagnosis.loop.
+    screen_single) the foot is named there too."""
     check_named(run("section_geometry", seed, grid(), ("section_geometry", "pad_frequency")))
 
 
