@@ -26,6 +26,7 @@ from railfem import models
 from railfem.measurement import HammerMeasurement, Metadata, Sensor
 from railfem.spec import SupportDeviation
 from railfem.standards import en15461, iec61260
+from railfem.diagnosis.effects.pad_length import ROWS as PAD_ROWS
 from railfem.track.supports import FootDashpot, FractionalZener, RailAbsorber
 
 TRUTH = dict(kp=400e6, eta_p=0.2, kb=60e6, eta_b=1.0, eta_r=0.02)
@@ -37,7 +38,7 @@ FORMS = ("own", "cross")
 #: the cross-model configuration: straight-sided P2 section mesh of CROSS["h"] m (the
 #: estimator's shipped mesh is curved, 10 mm), CROSS["springs"] springs per support row at
 #: the foot nodes (the published rule; the estimator: 4 midpoint springs), a pad of finite
-#: length in CROSS["rows"] rows (the estimator's pad_length effect: one row)
+#: length in CROSS["rows"] rows (the estimator's pad_length effect: PAD_ROWS)
 CROSS = {"h": 0.0075, "curved": False, "foot_rule": "nodes", "springs": 8, "rows": 4}
 
 
@@ -209,8 +210,8 @@ def effect_spec(case: str, seed: int = 0, model=MODEL):
     if case == "rail_damper":
         return _support(spec, absorber=RailAbsorber(mass=p["mass"], fa=p["fa"],
                                                     eta=p["eta_a"]))
-    if case == "pad_length":
-        return spec.replace(pad_length=p["pad_length"])
+    if case == "pad_length":  # in the estimator's own rows (cross_spec: CROSS["rows"])
+        return spec.replace(pad_length=p["pad_length"], n_rows=PAD_ROWS)
     if case == "voided_sleeper":
         return spec.replace(deviations=(SupportDeviation(index=p["index"],
                                                          kb=p["kb_factor"]),))
