@@ -182,6 +182,19 @@ def test_cross_form_is_not_the_estimator_configuration():
         g.dataset("none", 0, f=SMALL_F, form="other")
 
 
+def test_own_form_pad_is_the_estimators_pad():
+    """The own form is the estimator's configuration: its finite pad has the rows the
+    pad_length effect fits with (it kept one row when the effect went to two, and the own
+    study's pad came out 0.107 m for 0.16); the cross form has rows of its own."""
+    from railfem.diagnosis.effects import pad_length
+
+    own = g.effect_spec("pad_length", model="wfe-discrete")
+    fitted = pad_length.apply(g.truth_spec("wfe-discrete"),
+                              {"pad_length": g.CASES["pad_length"]["pad_length"]})
+    assert (own.pad_length, own.n_rows) == (fitted.pad_length, fitted.n_rows)
+    assert g.cross_spec(own).n_rows == g.CROSS["rows"] != own.n_rows
+
+
 def _base_parameter(d, name):
     return next(p for p in d.base.parameters() if p["name"] == name)
 
