@@ -2,12 +2,14 @@
 data, diagnose them without telling the diagnosis the case, and score the outcome.
 
     python -m benchmarks.blind.study OUT.jsonl CASE[,CASE] SEEDS [all] [--cross] [--model M]
-                                                                         (SEEDS e.g. 0-9)
+                                     [--effects E1,E2,...]              (SEEDS e.g. 0-9)
     python -m benchmarks.blind.study --table OUT.jsonl                   (the markdown table)
 
 (``all``: screen every effect of the library, random_support too, which the default
-search leaves out for its cost; the case random_support is always run that way.
-``--model``: the track model of the generator and the estimator (default
+search leaves out for its cost; the case random_support is run that way unless
+``--effects`` names its library. ``--effects``: the library to screen, by name (the case's
+effect and its competitors); ``--model``: the track model of the generator
+and the estimator (default
 generators.MODEL); ``--cross``: the data made by the cross-model generator, form='cross' of
 benchmarks/blind/generators.py, which differs from the estimator in model form; a clean
 case then counts as right when the verdict is 'consistent' or 'noise'.)
@@ -33,7 +35,7 @@ def run_case(case: str, seed: int, *, model: str = g.MODEL, f=None, effects=None
     from railfem.diagnosis import diagnose
 
     t = time.perf_counter()
-    effects = "all" if case in ALL_EFFECTS else effects
+    effects = "all" if case in ALL_EFFECTS and effects is None else effects
     d = diagnose(g.dataset(case, seed, f=f, model=model, form=form), model=model,
                  n_starts=n_starts, effects=effects)
     truth = g.truth(case, seed)
@@ -192,8 +194,10 @@ if __name__ == "__main__":
     path, cases, seeds = sys.argv[1], sys.argv[2].split(","), _seeds(sys.argv[3])
     form = "cross" if "--cross" in sys.argv else "own"
     model = sys.argv[sys.argv.index("--model") + 1] if "--model" in sys.argv else g.MODEL
-    rest = [a for a in sys.argv[4:] if a not in ("--cross", "--model", model)]
-    which = rest[0] if rest else None
+    named = sys.argv[sys.argv.index("--effects") + 1] if "--effects" in sys.argv else None
+    rest = [a for a in sys.argv[4:] if a not in ("--cross", "--model", model, "--effects",
+                                                 named)]
+    which = tuple(named.split(",")) if named else rest[0] if rest else None
     for case in cases:
         for seed in seeds:
             row = run_case(case, seed, model=model, effects=which, form=form)
