@@ -327,10 +327,8 @@ def refit(data, evaluator, spec, effects, x_base, scale, *, grid_values=None,
             null = _null(effects, k, best, j, problem_for, x)
             secant = (r_nb - r) / (nb[j] - best[j]) if null is None else \
                 (null[0] - r) / null[1]
-            Nd = pb.discrepancy_columns()
-            prof["discrepancy_var"] = grid_shift_variance(J, r, secant, Nd)
-            prof["discrepancy_terms"] = 0 if Nd is None else \
-                (distinct_variants(pb, Nd) or int(Nd.shape[1]))
+            prof["discrepancy_var"], prof["discrepancy_terms"] = grid_discrepancy(
+                pb, J, r, secant)
         prof.update(interval_from_profile(prof, s2 * prof.get("inflation", 1.0)))
         if not prof["integer"]:
             _close_profile(prof, keys.index(k), best, values, results, problem_for,
@@ -394,6 +392,18 @@ def _null(effects, key, best, j, problem_for, x):
         return None
 
 
+def grid_discrepancy(pb, J, r, secant) -> tuple[float, int]:
+    """(variance, terms): the model-form discrepancy's share of a grid parameter's
+    estimate in problem ``pb`` (grid_shift_variance of its discrepancy columns along the
+    residual's ``secant`` per unit of the parameter; J, r at the estimate) and how many
+    variants it samples (Student's t of its widening)."""
+    Nd = pb.discrepancy_columns()
+    if Nd is None:
+        return 0.0, 0
+    return (grid_shift_variance(J, r, secant, Nd),
+            distinct_variants(pb, Nd) or int(Nd.shape[1]))
+
+
 def rewiden_grid(o: Outcome) -> dict:
     """``o``'s grid profiles with their model-form share taken from ``o``'s own problem:
     the discrepancy columns of its scale (a chosen model's: model_scale, its own variants
@@ -405,20 +415,18 @@ def rewiden_grid(o: Outcome) -> dict:
     estimator's two rows gave 0.18 m with an interval from 0.162 m, on every seed run.
     New dicts; ``o``'s own are not changed."""
     pb, x = o.problem, o.x
-    Nd = pb.discrepancy_columns()
     todo = [k for k, p in o.grid_profiles.items() if not p["integer"] and "ci95_profile" in p]
-    if Nd is None or not todo:
+    if pb.discrepancy_columns() is None or not todo:
         return o.grid_profiles
     r, J = pb.residual(x), _jacobian(pb, x)
     keys, combo = list(o.grid), tuple(o.grid.values())
-    n = distinct_variants(pb, Nd) or int(Nd.shape[1])
     out = dict(o.grid_profiles)
     for key in todo:
         null = _null(o.effects, key, combo, keys.index(key),
                      lambda c: regrid(pb, dict(zip(keys, c))), x)
         if null is None:
             continue
-        var = grid_shift_variance(J, r, (null[0] - r) / null[1], Nd)
+        var, n = grid_discrepancy(pb, J, r, (null[0] - r) / null[1])
         prof = out[key]
         out[key] = dict(prof, discrepancy_var=var, discrepancy_terms=n,
                         ci95=widen(prof["ci95_profile"], prof["value"], var, n))
